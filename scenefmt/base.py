@@ -1,0 +1,83 @@
+"""The strict base model every scene-format model derives from, and the value types they share."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
+
+# Upper bounds that keep a hostile or mistyped file from asking for absurd work.
+MAX_IMAGE_SIDE = 32768
+MAX_SAMPLES = 1_000_000
+MAX_DEPTH = 10_000
+
+
+class StrictModel(BaseModel):
+    """Base of all scene models: unknown keys are errors, numbers must be finite."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        allow_inf_nan=False,
+        validate_default=False,
+        frozen=True,
+        use_attribute_docstrings=False,
+    )
+
+
+def _require_triple(value: Any) -> Any:
+    # Give one clear message for a wrong-length vector instead of per-index noise.
+    if isinstance(value, (list, tuple)):
+        if len(value) != 3:
+            raise ValueError(f"expected a list of 3 numbers, found {len(value)} items")
+        for item in value:
+            if isinstance(item, bool) or not isinstance(item, (int, float)):
+                raise ValueError(f"expected a list of 3 numbers, found {item!r} in it")
+            if not math.isfinite(item):
+                raise ValueError(f"expected finite numbers, found {item!r}")
+    return value
+
+
+Number = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+"""A finite real number; integers are accepted, strings and booleans are not."""
+
+Vec3 = Annotated[tuple[Number, Number, Number], BeforeValidator(_require_triple)]
+"""A point or direction `[x, y, z]`."""
+
+Component = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+
+Color = Annotated[tuple[Component, Component, Component], BeforeValidator(_require_triple)]
+"""A linear RGB colour `[r, g, b]`, each component >= 0; emitters may exceed 1."""
+
+Name = Annotated[
+    str,
+    StringConstraints(strict=True, pattern=r"^[A-Za-z_][A-Za-z0-9_.\-]*$", min_length=1, max_length=64),
+]
+"""The name of a definition: a letter or underscore, then letters, digits, `_`, `.` or `-`."""
+
+
+def vec_length(v: tuple[float, float, float]) -> float:
+    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+def vec_cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def vec_sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def slot_kind(value: Any) -> str | None:
+    """Tell a reference slot's three spellings apart: a name, a colour triple, or an inline definition.
+
+    Used as a pydantic callable discriminator so that an error points at the one
+    spelling the user meant instead of listing a failure for each alternative.
+    """
+    if isinstance(value, str):
+        return "name"
+    if isinstance(value, (list, tuple)):
+        return "color"
+    if isinstance(value, (dict, BaseModel)):
+        return "inline"
+    return None

@@ -1,0 +1,371 @@
+"""Resolve a validated scene into a node graph: names become edges, defaults are applied.
+
+Edges run texture -> material -> shape -> group -> instance, and medium -> boundary shape.
+The renderer consumes this graph, never the raw models. Building it reports dangling
+references (with did-you-mean), cycles through groups or textures, missing image files, and
+(as warnings) definitions nothing uses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Optional, Union
+
+from . import affine
+from .affine import Affine
+from .diagnostics import Diagnostic, SceneError, did_you_mean
+from .loading import SourceDocument
+from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
+from .media import ConstantMedium
+from .scene import Camera, Image, Scene, Shutter, SkyBackground, SolidBackground
+from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, MovingSphere, Quad, Sphere, Triangle
+from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
+
+MAX_INSTANCE_NESTING = 16
+
+
+@dataclass(eq=False)
+class TextureNode:
+    """A texture; `inputs` holds the checker's `even` and `odd` textures."""
+
+    model: Union[SolidTexture, CheckerTexture, ImageTexture, NoiseTexture]
+    name: Optional[str]
+    path: tuple
+    inputs: dict[str, "TextureNode"] = field(default_factory=dict)
+    image_path: Optional[Path] = None  # resolved file of an image texture
+
+    @property
+    def kind(self) -> str:
+        return self.model.type
+
+
+@dataclass(eq=False)
+class MaterialNode:
+    """A material; `textures` maps its slot (`albedo`, `emit`) to a texture node."""
+
+    model: Union[Lambertian, Metal, Dielectric, DiffuseLight, Isotropic]
+    name: Optional[str]
+    path: tuple
+    textures: dict[str, TextureNode] = field(default_factory=dict)
+
+    @property
+    def kind(self) -> str:
+        return self.model.type
+
+
+@dataclass(eq=False)
+class MediumNode:
+    """A participating medium; `albedo` is its phase function's texture."""
+
+    model: ConstantMedium
+    name: Optional[str]
+    path: tuple
+    albedo: TextureNode
+
+
+@dataclass(eq=False)
+class ShapeNode:
+    """A primitive shape with its material, optional interior medium, and `world_from_object` map
+    (relative to the group it belongs to)."""
+
+    model: Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box]
+    path: tuple
+    material: Optional[MaterialNode]
+    interior: Optional[MediumNode]
+    transform: Affine
+
+    @property
+    def kind(self) -> str:
+        return self.model.type
+
+
+@dataclass(eq=False)
+class InstanceNode:
+    """One placement of a group: `group_from_instance` is the instance's own transform."""
+
+    group: "GroupNode"
+    path: tuple
+    transform: Affine
+
+    kind = "instance"
+
+
+@dataclass(eq=False)
+class GroupNode:
+    """An ordered set of shapes and instances; the scene's top level is the group named `None`."""
+
+    name: Optional[str]
+    path: tuple
+    members: list[Union[ShapeNode, InstanceNode]] = field(default_factory=list)
+
+
+@dataclass(eq=False)
+class SceneGraph:
+    """The resolved scene: settings plus the root group, and every node reachable from it."""
+
+    camera: Camera
+    image: Image
+    shutter: Shutter
+    background: Union[SolidBackground, SkyBackground]
+    root: GroupNode
+    textures: list[TextureNode]
+    materials: list[MaterialNode]
+    media: list[MediumNode]
+    groups: list[GroupNode]
+    warnings: list[Diagnostic] = field(default_factory=list)
+    source: Optional[str] = None
+
+    def walk(self, group: Optional[GroupNode] = None) -> Iterable[Union[ShapeNode, InstanceNode]]:
+        """Every member of `group` (the root by default), not descending into instances."""
+        return iter((group or self.root).members)
+
+
+class _Resolver:
+    def __init__(self, scene: Scene, doc: Optional[SourceDocument], broken: dict[str, set], shape_paths: Optional[list]):
+        self.scene = scene
+        self.doc = doc
+        self.broken = broken
+        self.shape_paths = shape_paths
+        self.errors: list[Diagnostic] = []
+        self.textures: dict[str, TextureNode] = {}
+        self.materials: dict[str, MaterialNode] = {}
+        self.media: dict[str, MediumNode] = {}
+        self.groups: dict[str, GroupNode] = {}
+        self.used: dict[str, set] = {"textures": set(), "materials": set(), "media": set(), "groups": set()}
+        self.all_textures: list[TextureNode] = []
+        self.all_materials: list[MaterialNode] = []
+        self.all_media: list[MediumNode] = []
+        self._texture_stack: list[str] = []
+        self._group_stack: list[str] = []
+
+    # --- reporting -----------------------------------------------------------------------------
+
+    def error(self, path: tuple, message: str) -> None:
+        if self.doc is not None:
+            self.errors.append(self.doc.diagnostic(path, message))
+        else:
+            self.errors.append(Diagnostic("<scene>", 0, 0, tuple(path), message))
+
+    def warn(self, path: tuple, message: str) -> Diagnostic:
+        if self.doc is not None:
+            return self.doc.diagnostic(path, message, of_key=True, severity="warning")
+        return Diagnostic("<scene>", 0, 0, tuple(path), message, "warning")
+
+    def undefined(self, section: str, name: str, path: tuple) -> None:
+        if name in self.broken.get(section, ()):
+            return  # already reported where it is defined
+        kind = {"textures": "texture", "materials": "material", "media": "medium", "groups": "group"}[section]
+        defined = list(getattr(self.scene, section))
+        hint = did_you_mean(name, defined)
+        if not hint:
+            hint = f"; defined {section}: {', '.join(sorted(defined))}" if defined else f"; the scene defines no {section}"
+        self.error(path, f"undefined {kind} '{name}'{hint}")
+
+    # --- textures ------------------------------------------------------------------------------
+
+    def texture_slot(self, value, path: tuple) -> Optional[TextureNode]:
+        if isinstance(value, str):
+            return self.named_texture(value, path)
+        if isinstance(value, tuple):
+            node = TextureNode(SolidTexture(color=value), None, path)
+            self.all_textures.append(node)
+            return node
+        return self.texture(value, None, path)
+
+    def named_texture(self, name: str, path: tuple) -> Optional[TextureNode]:
+        self.used["textures"].add(name)
+        if name in self.textures:
+            return self.textures[name]
+        if name not in self.scene.textures:
+            self.undefined("textures", name, path)
+            return None
+        if name in self._texture_stack:
+            cycle = " -> ".join(self._texture_stack[self._texture_stack.index(name):] + [name])
+            self.error(path, f"textures refer to each other in a cycle: {cycle}")
+            return None
+        self._texture_stack.append(name)
+        try:
+            node = self.texture(self.scene.textures[name], name, ("textures", name))
+        finally:
+            self._texture_stack.pop()
+        if node is not None:
+            self.textures[name] = node
+        return node
+
+    def texture(self, model, name: Optional[str], path: tuple) -> Optional[TextureNode]:
+        node = TextureNode(model, name, path)
+        if isinstance(model, CheckerTexture):
+            for slot in ("even", "odd"):
+                child = self.texture_slot(getattr(model, slot), path + (slot,))
+                if child is None:
+                    return None
+                node.inputs[slot] = child
+        elif isinstance(model, ImageTexture):
+            node.image_path = self.image_file(model.file, path + ("file",))
+        self.all_textures.append(node)
+        return node
+
+    def image_file(self, file: str, path: tuple) -> Optional[Path]:
+        if self.doc is None:
+            return Path(file)
+        resolved = (self.doc.base_dir / file).resolve()
+        if not resolved.is_file():
+            self.error(path, f"image file '{file}' not found (looked for {resolved})")
+            return None
+        return resolved
+
+    # --- materials and media -------------------------------------------------------------------
+
+    def material_slot(self, value, path: tuple) -> Optional[MaterialNode]:
+        if isinstance(value, str):
+            self.used["materials"].add(value)
+            if value in self.materials:
+                return self.materials[value]
+            if value not in self.scene.materials:
+                self.undefined("materials", value, path)
+                return None
+            node = self.material(self.scene.materials[value], value, ("materials", value))
+            self.materials[value] = node
+            return node
+        return self.material(value, None, path)
+
+    def material(self, model, name: Optional[str], path: tuple) -> MaterialNode:
+        node = MaterialNode(model, name, path)
+        for slot in ("albedo", "emit"):
+            if slot in type(model).model_fields:
+                tex = self.texture_slot(getattr(model, slot), path + (slot,))
+                if tex is not None:
+                    node.textures[slot] = tex
+        self.all_materials.append(node)
+        return node
+
+    def medium_slot(self, value, path: tuple) -> Optional[MediumNode]:
+        if isinstance(value, str):
+            self.used["media"].add(value)
+            if value in self.media:
+                return self.media[value]
+            if value not in self.scene.media:
+                self.undefined("media", value, path)
+                return None
+            node = self.medium(self.scene.media[value], value, ("media", value))
+            if node is not None:
+                self.media[value] = node
+            return node
+        return self.medium(value, None, path)
+
+    def medium(self, model: ConstantMedium, name: Optional[str], path: tuple) -> Optional[MediumNode]:
+        albedo = self.texture_slot(model.albedo, path + ("albedo",))
+        if albedo is None:
+            return None
+        node = MediumNode(model, name, path, albedo)
+        self.all_media.append(node)
+        return node
+
+    # --- shapes and groups ---------------------------------------------------------------------
+
+    def group_slot(self, value, path: tuple) -> Optional[GroupNode]:
+        if isinstance(value, str):
+            self.used["groups"].add(value)
+            if value in self._group_stack:
+                cycle = " -> ".join(self._group_stack[self._group_stack.index(value):] + [value])
+                self.error(path, f"groups instance each other in a cycle: {cycle}")
+                return None
+            if value in self.groups:
+                return self.groups[value]
+            if value not in self.scene.groups:
+                self.undefined("groups", value, path)
+                return None
+            node = self.group(self.scene.groups[value], value, ("groups", value))
+            if node is not None:
+                self.groups[value] = node
+            return node
+        return self.group(value, None, path)
+
+    def group(self, model: Group, name: Optional[str], path: tuple) -> Optional[GroupNode]:
+        if len(self._group_stack) >= MAX_INSTANCE_NESTING:
+            self.error(path, f"instances are nested more than {MAX_INSTANCE_NESTING} deep")
+            return None
+        self._group_stack.append(name or f"<inline group at {path}>")
+        try:
+            node = GroupNode(name, path)
+            for i, shape in enumerate(model.shapes):
+                member = self.shape(shape, path + ("shapes", i))
+                if member is not None:
+                    node.members.append(member)
+        finally:
+            self._group_stack.pop()
+        return node
+
+    def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
+        transform = affine.from_steps(model.transform)
+        if isinstance(model, Instance):
+            group = self.group_slot(model.group, path + ("group",))
+            return InstanceNode(group, path, transform) if group is not None else None
+        material = self.material_slot(model.material, path + ("material",)) if model.material is not None else None
+        interior = None
+        if isinstance(model, ClosedShapeBase) and model.interior is not None:
+            interior = self.medium_slot(model.interior, path + ("interior",))
+        return ShapeNode(model, path, material, interior, transform)
+
+    # --- the whole scene -----------------------------------------------------------------------
+
+    def resolve(self) -> SceneGraph:
+        scene = self.scene
+        root = GroupNode(None, ())
+        for i, shape in enumerate(scene.shapes):
+            path = self.shape_paths[i] if self.shape_paths is not None else ("shapes", i)
+            member = self.shape(shape, path)
+            if member is not None:
+                root.members.append(member)
+        # Definitions nothing reached are still checked (so their errors show), then reported as
+        # unused; a group goes first since resolving it marks what it uses.
+        warnings = []
+        for section, resolve_one in (
+            ("groups", lambda n: self.group_slot(n, ("groups", n))),
+            ("materials", lambda n: self.material_slot(n, ("materials", n))),
+            ("media", lambda n: self.medium_slot(n, ("media", n))),
+            ("textures", lambda n: self.named_texture(n, ("textures", n))),
+        ):
+            for name in [n for n in getattr(scene, section) if n not in self.used[section]]:
+                resolve_one(name)
+                kind = {"textures": "texture", "materials": "material", "media": "medium", "groups": "group"}[section]
+                warnings.append(self.warn((section, name), f"{kind} '{name}' is defined but never used"))
+        background = scene.background
+        if isinstance(background, tuple):
+            background = SolidBackground(color=background)
+        return SceneGraph(
+            camera=scene.camera,
+            image=scene.image,
+            shutter=scene.shutter,
+            background=background,
+            root=root,
+            textures=self.all_textures,
+            materials=self.all_materials,
+            media=self.all_media,
+            groups=list(self.groups.values()),
+            warnings=warnings,
+            source=self.doc.file if self.doc is not None else None,
+        )
+
+
+def build_graph(
+    scene: Scene,
+    doc: Optional[SourceDocument] = None,
+    *,
+    broken: Optional[dict[str, set]] = None,
+    shape_paths: Optional[list] = None,
+) -> SceneGraph:
+    """Resolve `scene` into a `SceneGraph`; raises `SceneError` listing every problem."""
+    resolver = _Resolver(scene, doc, broken or {}, shape_paths)
+    graph = resolver.resolve()
+    if resolver.errors:
+        raise SceneError(resolver.errors)
+    return graph
+
+
+def graph_problems(scene: Scene, doc: Optional[SourceDocument], broken: dict[str, set], shape_paths: list) -> list[Diagnostic]:
+    """The graph errors of a partially valid scene (used to report all errors of a file at once)."""
+    resolver = _Resolver(scene, doc, broken, shape_paths)
+    resolver.resolve()
+    return resolver.errors

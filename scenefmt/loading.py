@@ -1,0 +1,432 @@
+"""Safe loading of YAML and JSON scene files into plain data, keeping the line and column of every node.
+
+Both syntaxes load to the same plain values (dicts, lists, str, int, float, bool, None)
+plus a `Positions` table, so later stages can point at `file:line:column` for any key path.
+
+Safety: no object is ever constructed from a tag; file size, nesting depth and the number of
+nodes after YAML alias expansion are bounded (counted before anything is expanded, so a
+"billion laughs" file fails at once); duplicate keys are errors; and YAML uses the YAML 1.2 core
+schema, so `on`, `off`, `yes`, `no` stay strings and `1e3` is a number.
+"""
+
+from __future__ import annotations
+
+import bisect
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+from yaml.composer import Composer
+from yaml.constructor import BaseConstructor
+from yaml.parser import Parser
+from yaml.reader import Reader
+from yaml.resolver import BaseResolver
+from yaml.scanner import Scanner
+
+from .diagnostics import Diagnostic, SceneError
+
+MAX_FILE_BYTES = 64 * 1024 * 1024
+MAX_DEPTH = 64
+MAX_NODES = 5_000_000
+
+Position = tuple[int, int]  # 1-based line, 1-based column
+
+
+@dataclass
+class SourceDocument:
+    """A parsed scene file: its plain data and where each value and key sits in the text."""
+
+    file: str
+    data: Any
+    values: dict[tuple, Position] = field(default_factory=dict)
+    keys: dict[tuple, Position] = field(default_factory=dict)
+    base_dir: Path = field(default_factory=Path.cwd)
+
+    def position(self, path: tuple, of_key: bool = False) -> Position:
+        """Where `path` is written; for a missing path, where its nearest written parent is."""
+        path = tuple(path)
+        if of_key and path in self.keys:
+            return self.keys[path]
+        while path:
+            if path in self.values:
+                return self.values[path]
+            path = path[:-1]
+        return self.values.get((), (1, 1))
+
+    def diagnostic(self, path: tuple, message: str, of_key: bool = False, severity: str = "error") -> Diagnostic:
+        line, col = self.position(path, of_key)
+        return Diagnostic(self.file, line, col, tuple(path), message, severity)
+
+
+# ----------------------------------------------------------------------------------------------
+# YAML
+
+
+class _CoreSchemaResolver(BaseResolver):
+    """Implicit typing by the YAML 1.2 core schema instead of PyYAML's YAML 1.1 rules."""
+
+    yaml_implicit_resolvers: dict = {}
+
+
+_CoreSchemaResolver.add_implicit_resolver(
+    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"), list("tTfF")
+)
+_CoreSchemaResolver.add_implicit_resolver(
+    "tag:yaml.org,2002:null", re.compile(r"^(?:~|null|Null|NULL|)$"), ["~", "n", "N", ""]
+)
+_CoreSchemaResolver.add_implicit_resolver(
+    "tag:yaml.org,2002:int",
+    re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"),
+    list("-+0123456789"),
+)
+_CoreSchemaResolver.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(
+        r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+    ),
+    list("-+0123456789."),
+)
+
+
+class _ComposingLoader(Reader, Scanner, Parser, Composer, BaseConstructor, _CoreSchemaResolver):
+    """Builds a node tree only; values are converted by `_YamlConverter`, never by tag constructors."""
+
+    def __init__(self, stream: str):
+        Reader.__init__(self, stream)
+        Scanner.__init__(self)
+        Parser.__init__(self)
+        Composer.__init__(self)
+        BaseConstructor.__init__(self)
+        _CoreSchemaResolver.__init__(self)
+
+
+def _mark_position(mark: Any) -> Position:
+    return (mark.line + 1, mark.column + 1) if mark is not None else (1, 1)
+
+
+def _prescan_yaml(text: str, file: str) -> None:
+    """Bound nesting depth and the node count after alias expansion, from the event stream alone."""
+    depth = 0
+    sizes: dict[str, int] = {}
+    stack: list[list] = [[0, None]]  # [node count, anchor] per open collection
+    loader = _ComposingLoader(text)
+    try:
+        while loader.check_event():
+            event = loader.get_event()
+            if isinstance(event, (yaml.SequenceStartEvent, yaml.MappingStartEvent)):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise SceneError([Diagnostic(file, *_mark_position(event.start_mark), (), f"nesting deeper than {MAX_DEPTH} levels")])
+                stack.append([1, event.anchor])
+            elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+                depth -= 1
+                count, anchor = stack.pop()
+                if anchor is not None:
+                    sizes[anchor] = count
+                stack[-1][0] += count
+            elif isinstance(event, yaml.ScalarEvent):
+                if event.anchor is not None:
+                    sizes[event.anchor] = 1
+                stack[-1][0] += 1
+            elif isinstance(event, yaml.AliasEvent):
+                stack[-1][0] += sizes.get(event.anchor, 1)
+            else:
+                continue
+            if stack[-1][0] > MAX_NODES or sum(s[0] for s in stack) > MAX_NODES:
+                raise SceneError(
+                    [
+                        Diagnostic(
+                            file,
+                            *_mark_position(event.start_mark),
+                            (),
+                            f"the document expands to more than {MAX_NODES:,} values "
+                            "(through YAML aliases or sheer size); refusing to load it",
+                        )
+                    ]
+                )
+    finally:
+        loader.dispose()
+
+
+class _YamlConverter:
+    """Turns a composed YAML node tree into plain values, recording positions and problems."""
+
+    def __init__(self, doc: SourceDocument):
+        self.doc = doc
+        self.problems: list[Diagnostic] = []
+
+    def problem(self, node_or_mark: Any, path: tuple, message: str) -> None:
+        mark = getattr(node_or_mark, "start_mark", node_or_mark)
+        self.problems.append(Diagnostic(self.doc.file, *_mark_position(mark), path, message))
+
+    def convert(self, node: yaml.Node, path: tuple) -> Any:
+        self.doc.values[path] = _mark_position(node.start_mark)
+        if isinstance(node, yaml.ScalarNode):
+            return self.scalar(node, path)
+        if isinstance(node, yaml.SequenceNode):
+            if node.tag != "tag:yaml.org,2002:seq":
+                self.problem(node, path, f"the tag {node.tag!r} is not allowed in a scene file")
+            return [self.convert(item, path + (i,)) for i, item in enumerate(node.value)]
+        if isinstance(node, yaml.MappingNode):
+            if node.tag != "tag:yaml.org,2002:map":
+                self.problem(node, path, f"the tag {node.tag!r} is not allowed in a scene file")
+            out: dict[str, Any] = {}
+            first_seen: dict[str, Position] = {}
+            for key_node, value_node in node.value:
+                if not isinstance(key_node, yaml.ScalarNode):
+                    self.problem(key_node, path, "keys must be plain names, not lists or mappings")
+                    continue
+                key = key_node.value
+                if key == "<<":
+                    self.problem(key_node, path, "YAML merge keys ('<<') are not supported; define the part once under a name and refer to it")
+                    continue
+                key_pos = _mark_position(key_node.start_mark)
+                if key in first_seen:
+                    line, col = first_seen[key]
+                    self.problem(key_node, path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})")
+                    continue
+                first_seen[key] = key_pos
+                self.doc.keys[path + (key,)] = key_pos
+                out[key] = self.convert(value_node, path + (key,))
+            return out
+        self.problem(node, path, "unsupported YAML node")
+        return None
+
+    def scalar(self, node: yaml.ScalarNode, path: tuple) -> Any:
+        tag, text = node.tag, node.value
+        if tag == "tag:yaml.org,2002:str":
+            return text
+        if tag == "tag:yaml.org,2002:null":
+            return None
+        if tag == "tag:yaml.org,2002:bool":
+            return text.lower() == "true"
+        if tag == "tag:yaml.org,2002:int":
+            try:
+                if text.startswith("0o"):
+                    return int(text[2:], 8)
+                if text.startswith("0x"):
+                    return int(text[2:], 16)
+                return int(text, 10)
+            except ValueError:
+                self.problem(node, path, f"{text!r} is not an integer")
+                return text
+        if tag == "tag:yaml.org,2002:float":
+            low = text.lower()
+            if low.endswith(".inf"):
+                return float("-inf") if low.startswith("-") else float("inf")
+            if low == ".nan":
+                return float("nan")
+            try:
+                return float(text)
+            except ValueError:
+                self.problem(node, path, f"{text!r} is not a number")
+                return text
+        self.problem(node, path, f"the tag {tag!r} is not allowed in a scene file")
+        return text
+
+
+def parse_yaml(text: str, file: str) -> SourceDocument:
+    doc = SourceDocument(file=file, data=None)
+    try:
+        _prescan_yaml(text, file)
+        loader = _ComposingLoader(text)
+        try:
+            root = loader.get_single_node()
+        finally:
+            loader.dispose()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        what = exc.problem or "invalid YAML"
+        if exc.context:
+            what = f"{what} ({exc.context})"
+        raise SceneError([Diagnostic(file, *_mark_position(mark), (), f"YAML syntax error: {what}")]) from None
+    except yaml.YAMLError as exc:
+        raise SceneError([Diagnostic(file, 1, 1, (), f"YAML error: {exc}")]) from None
+    if root is None:
+        doc.data = {}
+        doc.values[()] = (1, 1)
+        return doc
+    converter = _YamlConverter(doc)
+    doc.data = converter.convert(root, ())
+    if converter.problems:
+        raise SceneError(converter.problems)
+    return doc
+
+
+# ----------------------------------------------------------------------------------------------
+# JSON
+
+_JSON_NUMBER = re.compile(r"-?(?:0|[1-9][0-9]*)(\.[0-9]+)?([eE][-+]?[0-9]+)?")
+_JSON_SPACE = re.compile(r"[ \t\n\r]*")
+
+
+class _JsonParser:
+    """A strict RFC 8259 parser that records positions and rejects duplicate keys.
+
+    Python's `json` module cannot report where a value sits, so scene files get this small
+    recursive-descent parser; strings are still decoded by `json.decoder.scanstring`.
+    """
+
+    def __init__(self, text: str, doc: SourceDocument):
+        self.text = text
+        self.doc = doc
+        self.line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
+        self.nodes = 0
+        self.problems: list[Diagnostic] = []
+
+    def where(self, offset: int) -> Position:
+        line = bisect.bisect_right(self.line_starts, offset) - 1
+        return (line + 1, offset - self.line_starts[line] + 1)
+
+    def fail(self, offset: int, message: str) -> SceneError:
+        return SceneError([Diagnostic(self.doc.file, *self.where(offset), (), f"JSON syntax error: {message}")])
+
+    def skip(self, i: int) -> int:
+        return _JSON_SPACE.match(self.text, i).end()
+
+    def parse(self) -> Any:
+        i = self.skip(0)
+        value, i = self.value(i, (), 1)
+        i = self.skip(i)
+        if i != len(self.text):
+            raise self.fail(i, "extra data after the end of the document")
+        if self.problems:
+            raise SceneError(self.problems)
+        return value
+
+    def value(self, i: int, path: tuple, depth: int) -> tuple[Any, int]:
+        self.nodes += 1
+        if self.nodes > MAX_NODES:
+            raise self.fail(i, f"the document holds more than {MAX_NODES:,} values; refusing to load it")
+        if depth > MAX_DEPTH:
+            raise self.fail(i, f"nesting deeper than {MAX_DEPTH} levels")
+        self.doc.values[path] = self.where(i)
+        if i >= len(self.text):
+            raise self.fail(i, "unexpected end of file, expected a value")
+        ch = self.text[i]
+        if ch == "{":
+            return self.obj(i, path, depth)
+        if ch == "[":
+            return self.array(i, path, depth)
+        if ch == '"':
+            return self.string(i)
+        for word, val in (("true", True), ("false", False), ("null", None)):
+            if self.text.startswith(word, i):
+                return val, i + len(word)
+        m = _JSON_NUMBER.match(self.text, i)
+        if m and m.end() > i:
+            s = m.group(0)
+            return (float(s) if (m.group(1) or m.group(2)) else int(s)), m.end()
+        raise self.fail(i, f"unexpected character {ch!r}, expected a value")
+
+    def string(self, i: int) -> tuple[str, int]:
+        try:
+            return json.decoder.scanstring(self.text, i + 1, True)
+        except json.JSONDecodeError as exc:
+            raise self.fail(exc.pos, exc.msg) from None
+
+    def obj(self, i: int, path: tuple, depth: int) -> tuple[dict, int]:
+        out: dict[str, Any] = {}
+        i = self.skip(i + 1)
+        if self.text.startswith("}", i):
+            return out, i + 1
+        while True:
+            if not self.text.startswith('"', i):
+                raise self.fail(i, "expected a key in double quotes")
+            key_at = i
+            key, i = self.string(i)
+            i = self.skip(i)
+            if not self.text.startswith(":", i):
+                raise self.fail(i, "expected ':' after the key")
+            i = self.skip(i + 1)
+            if key in out:
+                line, col = self.doc.keys[path + (key,)]
+                self.problems.append(
+                    Diagnostic(self.doc.file, *self.where(key_at), path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})")
+                )
+                saved = dict(self.doc.values)
+                _, i = self.value(i, path + ("<duplicate>",), depth + 1)
+                self.doc.values = saved
+            else:
+                self.doc.keys[path + (key,)] = self.where(key_at)
+                out[key], i = self.value(i, path + (key,), depth + 1)
+            i = self.skip(i)
+            if self.text.startswith(",", i):
+                i = self.skip(i + 1)
+                continue
+            if self.text.startswith("}", i):
+                return out, i + 1
+            raise self.fail(i, "expected ',' or '}'")
+
+    def array(self, i: int, path: tuple, depth: int) -> tuple[list, int]:
+        out: list[Any] = []
+        i = self.skip(i + 1)
+        if self.text.startswith("]", i):
+            return out, i + 1
+        while True:
+            item, i = self.value(i, path + (len(out),), depth + 1)
+            out.append(item)
+            i = self.skip(i)
+            if self.text.startswith(",", i):
+                i = self.skip(i + 1)
+                continue
+            if self.text.startswith("]", i):
+                return out, i + 1
+            raise self.fail(i, "expected ',' or ']'")
+
+
+def parse_json(text: str, file: str) -> SourceDocument:
+    doc = SourceDocument(file=file, data=None)
+    doc.data = _JsonParser(text, doc).parse()
+    return doc
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def syntax_of(path: Path, text: str) -> str:
+    """`json` for .json files, `yaml` for .yaml/.yml; otherwise sniff the first character."""
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        return "json"
+    if suffix in (".yaml", ".yml"):
+        return "yaml"
+    return "json" if text.lstrip().startswith(("{", "[")) else "yaml"
+
+
+def parse_text(text: str, file: str = "<string>", syntax: str = "yaml", base_dir: Path | None = None) -> SourceDocument:
+    """Parse scene text of either syntax into a `SourceDocument`; raises `SceneError`."""
+    if len(text) > MAX_FILE_BYTES:
+        raise SceneError([Diagnostic(file, 1, 1, (), f"the file is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB")])
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    doc = parse_json(text, file) if syntax == "json" else parse_yaml(text, file)
+    doc.base_dir = base_dir if base_dir is not None else Path.cwd()
+    return doc
+
+
+def parse_file(path: str | Path) -> SourceDocument:
+    """Read and parse a scene file; raises `SceneError` naming the file on any problem."""
+    path = Path(path)
+    name = str(path)
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise SceneError([Diagnostic(name, 1, 1, (), f"cannot read the file: {exc.strerror or exc}")]) from None
+    if size > MAX_FILE_BYTES:
+        raise SceneError([Diagnostic(name, 1, 1, (), f"the file is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB ({size:,} bytes)")])
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise SceneError([Diagnostic(name, 1, 1, (), f"cannot read the file: {exc.strerror or exc}")]) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise SceneError([Diagnostic(name, line, col, (), "the file is not valid UTF-8 text")]) from None
+    return parse_text(text, name, syntax_of(path, text), base_dir=path.resolve().parent)

@@ -1,0 +1,253 @@
+"""The top-level scene model: camera, image, shutter, background, named definitions and shapes."""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Annotated, Any, Literal, Optional, Union
+
+from pydantic import Discriminator, Field, Tag, field_validator, model_validator
+
+from .base import (
+    MAX_DEPTH,
+    MAX_IMAGE_SIDE,
+    MAX_SAMPLES,
+    Color,
+    Name,
+    Number,
+    StrictModel,
+    Vec3,
+    vec_cross,
+    vec_length,
+    vec_sub,
+)
+from .materials import Material
+from .media import Medium
+from .shapes import Group, Shape
+from .textures import Texture
+
+FORMAT_VERSION = 1
+MAX_SHAPES = 5_000_000
+
+
+class Camera(StrictModel):
+    """A pinhole or thin-lens camera at `look_from` looking at `look_at`.
+
+    ```yaml
+    look_from: [13, 2, 3]
+    look_at: [0, 0, 0]
+    vfov: 20
+    defocus_angle: 0.6
+    focus_distance: 10
+    ```
+    """
+
+    look_from: Vec3 = Field((0.0, 0.0, 0.0), description="Position of the camera.")
+    look_at: Vec3 = Field((0.0, 0.0, -1.0), description="Point the camera looks at.")
+    up: Vec3 = Field((0.0, 1.0, 0.0), description="Which way is up; must not be parallel to the view direction.")
+    vfov: Number = Field(90.0, gt=0, lt=180, description="Vertical field of view, in degrees.")
+    defocus_angle: Number = Field(
+        0.0, ge=0, lt=180, description="Cone angle of rays through a pixel, in degrees; 0 is a pinhole (no defocus blur)."
+    )
+    aperture: Optional[Number] = Field(
+        None,
+        ge=0,
+        description="Lens diameter, as in the first book; an alternative to `defocus_angle` (give one, not both).",
+    )
+    focus_distance: Optional[Number] = Field(
+        None,
+        gt=0,
+        description="Distance from `look_from` to the plane in perfect focus; by default the distance to `look_at`.",
+    )
+
+    @model_validator(mode="after")
+    def _well_posed(self) -> "Camera":
+        view = vec_sub(self.look_at, self.look_from)
+        if vec_length(view) == 0.0:
+            raise ValueError("look_from and look_at are the same point, so there is no view direction")
+        if vec_length(self.up) == 0.0:
+            raise ValueError("up must not be the zero vector")
+        if vec_length(vec_cross(view, self.up)) <= 1e-12 * vec_length(view) * vec_length(self.up):
+            raise ValueError("up is parallel to the view direction (look_at - look_from); choose another up")
+        if self.aperture is not None and self.aperture > 0 and self.defocus_angle > 0:
+            raise ValueError("give either defocus_angle or aperture, not both")
+        return self
+
+    @property
+    def focus(self) -> float:
+        """The focus distance in effect."""
+        if self.focus_distance is not None:
+            return self.focus_distance
+        return vec_length(vec_sub(self.look_at, self.look_from))
+
+    @property
+    def lens_radius(self) -> float:
+        """Radius of the lens disk that ray origins are drawn from; 0 for a pinhole."""
+        if self.aperture is not None and self.aperture > 0:
+            return self.aperture / 2.0
+        return self.focus * math.tan(math.radians(self.defocus_angle) / 2.0)
+
+
+_RATIO = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*[:/]\s*(\d+(?:\.\d+)?)\s*$")
+
+
+class Image(StrictModel):
+    """Output size and sampling.
+
+    ```yaml
+    width: 400
+    aspect_ratio: "16:9"
+    samples_per_pixel: 100
+    max_depth: 50
+    seed: 7
+    ```
+    """
+
+    width: int = Field(100, strict=True, ge=1, le=MAX_IMAGE_SIDE, description="Width in pixels.")
+    height: Optional[int] = Field(
+        None, strict=True, ge=1, le=MAX_IMAGE_SIDE, description="Height in pixels; by default width / aspect_ratio."
+    )
+    aspect_ratio: Optional[Union[Number, Annotated[str, Field(pattern=_RATIO.pattern)]]] = Field(
+        None,
+        description='Width over height, as a number or "W:H" (default 1); give either this or height.',
+    )
+    samples_per_pixel: int = Field(10, strict=True, ge=1, le=MAX_SAMPLES, description="Paths traced per pixel.")
+    max_depth: int = Field(10, strict=True, ge=1, le=MAX_DEPTH, description="Most bounces a path may take.")
+    seed: int = Field(0, strict=True, ge=0, le=2**63 - 1, description="Seed of the random numbers; the same seed gives the same image.")
+
+    @field_validator("aspect_ratio")
+    @classmethod
+    def _positive_ratio(cls, value: Any) -> Any:
+        if value is None:
+            return value
+        ratio = _parse_ratio(value)
+        if not ratio > 0:
+            raise ValueError(f"the aspect ratio must be > 0, found {value!r}")
+        return value
+
+    @model_validator(mode="after")
+    def _one_of_height_or_ratio(self) -> "Image":
+        if self.height is not None and self.aspect_ratio is not None:
+            raise ValueError("give either height or aspect_ratio, not both")
+        return self
+
+    @property
+    def ratio(self) -> float:
+        return 1.0 if self.aspect_ratio is None else _parse_ratio(self.aspect_ratio)
+
+    @property
+    def pixel_height(self) -> int:
+        """The height in effect: as given, or int(width / aspect_ratio), at least 1."""
+        if self.height is not None:
+            return self.height
+        return max(1, min(MAX_IMAGE_SIDE, int(self.width / self.ratio)))
+
+
+def _parse_ratio(value: Union[float, str]) -> float:
+    if isinstance(value, str):
+        m = _RATIO.match(value)
+        w, h = float(m.group(1)), float(m.group(2))
+        return w / h if h > 0 else 0.0
+    return float(value)
+
+
+class Shutter(StrictModel):
+    """When the shutter opens and closes; each ray gets a time drawn uniformly in [open, close).
+
+    ```yaml
+    open: 0
+    close: 1
+    ```
+    """
+
+    open: Number = Field(0.0, description="Time the shutter opens.")
+    close: Number = Field(1.0, description="Time the shutter closes; open == close freezes all motion.")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Shutter":
+        if self.open > self.close:
+            raise ValueError(f"the shutter closes ({self.close}) before it opens ({self.open})")
+        return self
+
+
+class SolidBackground(StrictModel):
+    """One colour for every ray that leaves the scene (a bare `[r, g, b]` means the same).
+
+    ```yaml
+    type: solid
+    color: [0.7, 0.8, 1.0]
+    ```
+    """
+
+    type: Literal["solid"] = Field("solid", description="Selects a solid background.")
+    color: Color = Field((0.0, 0.0, 0.0), description="Radiance of the background.")
+
+
+class SkyBackground(StrictModel):
+    """The first book's sky: a blend from `bottom` (straight down) to `top` (straight up) by the ray's height.
+
+    ```yaml
+    type: sky
+    bottom: [1, 1, 1]
+    top: [0.5, 0.7, 1.0]
+    ```
+    """
+
+    type: Literal["sky"] = Field("sky", description="Selects the vertical gradient sky.")
+    bottom: Color = Field((1.0, 1.0, 1.0), description="Radiance looking straight down.")
+    top: Color = Field((0.5, 0.7, 1.0), description="Radiance looking straight up.")
+
+
+def _background_kind(value: Any) -> str | None:
+    if isinstance(value, (list, tuple)):
+        return "color"
+    if isinstance(value, dict):
+        return value.get("type") if isinstance(value.get("type"), str) else None
+    if isinstance(value, (SolidBackground, SkyBackground)):
+        return value.type
+    return None
+
+
+Background = Annotated[
+    Union[
+        Annotated[Color, Tag("color")],
+        Annotated[SolidBackground, Tag("solid")],
+        Annotated[SkyBackground, Tag("sky")],
+    ],
+    Discriminator(
+        _background_kind,
+        custom_error_type="background",
+        custom_error_message="expected a colour [r, g, b], {type: solid, ...} or {type: sky, ...}",
+    ),
+]
+"""A colour triple, a solid background or the sky gradient."""
+
+
+class Scene(StrictModel):
+    """A whole scene file.
+
+    ```yaml
+    version: 1
+    camera: {look_from: [0, 0, 9], look_at: [0, 0, 0], vfov: 80}
+    image: {width: 400, aspect_ratio: 1, samples_per_pixel: 100, max_depth: 50}
+    background: [0.7, 0.8, 1.0]
+    materials:
+      red: {type: lambertian, albedo: [1.0, 0.2, 0.2]}
+    shapes:
+      - {type: quad, q: [-3, -2, 5], u: [0, 0, -4], v: [0, 4, 0], material: red}
+    ```
+    """
+
+    version: Literal[1] = Field(FORMAT_VERSION, description="Version of the scene format; this release reads version 1.")
+    description: str = Field("", max_length=10_000, description="Free text about the scene.")
+    camera: Camera = Field(default_factory=Camera, description="The camera.")
+    image: Image = Field(default_factory=Image, description="Image size and sampling.")
+    shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")
+    background: Background = Field(
+        default_factory=SkyBackground, description="Radiance of rays that leave the scene: a colour, `solid` or `sky`."
+    )
+    textures: dict[Name, Texture] = Field(default_factory=dict, description="Named textures.")
+    materials: dict[Name, Material] = Field(default_factory=dict, description="Named materials.")
+    media: dict[Name, Medium] = Field(default_factory=dict, description="Named participating media.")
+    groups: dict[Name, Group] = Field(default_factory=dict, description="Named groups of shapes, placed by `instance` shapes.")
+    shapes: list[Shape] = Field(default_factory=list, max_length=MAX_SHAPES, description="The shapes of the scene.")

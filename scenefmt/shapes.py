@@ -1,0 +1,259 @@
+"""Shape models: sphere, moving sphere, quad, triangle, disk, box, and instances of groups.
+
+Every shape takes a `material` and an optional `transform`; closed shapes (sphere,
+moving sphere, box) may also hold a participating medium as their `interior`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Optional, Union
+
+from pydantic import Discriminator, Field, Tag, field_validator, model_validator
+
+from .base import Name, Number, StrictModel, Vec3, slot_kind, vec_cross, vec_length, vec_sub
+from .materials import MaterialSlot
+from .media import MediumSlot
+from .transforms import Transform
+
+# Relative threshold below which two edge vectors count as parallel (a zero-area face).
+_DEGENERATE = 1e-12
+
+NEGATIVE_RADIUS_HINT = (
+    "a sphere's radius must be > 0; the old book's negative-radius 'hollow glass' trick is not "
+    "supported: model the air bubble as a second, smaller sphere of dielectric with ior 1/1.5"
+)
+
+
+def _reject_negative_radius(value: Any) -> Any:
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value < 0:
+        raise ValueError(NEGATIVE_RADIUS_HINT)
+    return value
+
+
+class ShapeBase(StrictModel):
+    """Fields every shape has."""
+
+    transform: Transform = Field(
+        default_factory=list, description="Transform steps applied to the shape, first to last."
+    )
+
+
+class SurfaceBase(ShapeBase):
+    """A shape that is only a surface (it encloses nothing), so it must have a material."""
+
+    material: MaterialSlot = Field(..., description="Surface material: a name from `materials:` or an inline material.")
+
+
+class ClosedShapeBase(ShapeBase):
+    """A shape that encloses a volume, so it can hold a medium as well as (or instead of) a surface."""
+
+    material: Optional[MaterialSlot] = Field(
+        None, description="Surface material: a name from `materials:` or an inline material."
+    )
+    interior: Optional[MediumSlot] = Field(
+        None,
+        description="A medium filling the inside: a name from `media:` or an inline medium. "
+        "Without a `material` the surface itself is invisible.",
+    )
+
+    @model_validator(mode="after")
+    def _material_or_interior(self) -> "ClosedShapeBase":
+        if self.material is None and self.interior is None:
+            raise ValueError("a shape needs a `material`, an `interior` medium, or both")
+        return self
+
+
+class Sphere(ClosedShapeBase):
+    """A sphere.
+
+    ```yaml
+    type: sphere
+    center: [0, 1, 0]
+    radius: 1
+    material: glass
+    ```
+    """
+
+    type: Literal["sphere"] = Field("sphere", description="Selects a sphere.")
+    center: Vec3 = Field(..., description="Centre point.")
+    radius: Number = Field(..., gt=0, description="Radius, > 0.")
+
+    _check_radius = field_validator("radius", mode="before")(classmethod(lambda cls, v: _reject_negative_radius(v)))
+
+
+class MovingSphere(ClosedShapeBase):
+    """A sphere whose centre moves in a straight line from `center0` when the shutter opens to
+    `center1` when it closes (motion blur).
+
+    ```yaml
+    type: moving_sphere
+    center0: [400, 400, 200]
+    center1: [430, 400, 200]
+    radius: 50
+    material: orange
+    ```
+    """
+
+    type: Literal["moving_sphere"] = Field("moving_sphere", description="Selects a moving sphere.")
+    center0: Vec3 = Field(..., description="Centre when the shutter opens.")
+    center1: Vec3 = Field(..., description="Centre when the shutter closes.")
+    radius: Number = Field(..., gt=0, description="Radius, > 0.")
+
+    _check_radius = field_validator("radius", mode="before")(classmethod(lambda cls, v: _reject_negative_radius(v)))
+
+
+class Quad(SurfaceBase):
+    """A parallelogram with corner `q` and edges `u` and `v`; its front face is on the side of u x v.
+
+    ```yaml
+    type: quad
+    q: [343, 554, 332]
+    u: [-130, 0, 0]
+    v: [0, 0, -105]
+    material: light
+    ```
+    """
+
+    type: Literal["quad"] = Field("quad", description="Selects a parallelogram.")
+    q: Vec3 = Field(..., description="One corner.")
+    u: Vec3 = Field(..., description="First edge from `q`.")
+    v: Vec3 = Field(..., description="Second edge from `q`.")
+
+    @model_validator(mode="after")
+    def _nonzero_area(self) -> "Quad":
+        if vec_length(vec_cross(self.u, self.v)) <= _DEGENERATE * vec_length(self.u) * vec_length(self.v) or (
+            vec_length(self.u) == 0 or vec_length(self.v) == 0
+        ):
+            raise ValueError("the quad has zero area: `u` and `v` must be non-zero and not parallel")
+        return self
+
+
+class Triangle(SurfaceBase):
+    """A triangle through three vertices; its front face is on the side of (p1 - p0) x (p2 - p0).
+
+    ```yaml
+    type: triangle
+    vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    material: white
+    ```
+    """
+
+    type: Literal["triangle"] = Field("triangle", description="Selects a triangle.")
+    vertices: tuple[Vec3, Vec3, Vec3] = Field(..., description="The three corners, [p0, p1, p2].")
+
+    @field_validator("vertices", mode="before")
+    @classmethod
+    def _three_vertices(cls, value: Any) -> Any:
+        if isinstance(value, (list, tuple)) and len(value) != 3:
+            raise ValueError(f"expected 3 vertices, found {len(value)}")
+        return value
+
+    @model_validator(mode="after")
+    def _nonzero_area(self) -> "Triangle":
+        p0, p1, p2 = self.vertices
+        e1, e2 = vec_sub(p1, p0), vec_sub(p2, p0)
+        if vec_length(vec_cross(e1, e2)) <= _DEGENERATE * vec_length(e1) * vec_length(e2) or (
+            vec_length(e1) == 0 or vec_length(e2) == 0
+        ):
+            raise ValueError("the triangle has zero area: its vertices are collinear or repeated")
+        return self
+
+
+class Disk(SurfaceBase):
+    """A flat disk; its front face is on the side its `normal` points to.
+
+    ```yaml
+    type: disk
+    center: [0, 0, 0]
+    normal: [0, 1, 0]
+    radius: 2
+    material: white
+    ```
+    """
+
+    type: Literal["disk"] = Field("disk", description="Selects a disk.")
+    center: Vec3 = Field(..., description="Centre point.")
+    normal: Vec3 = Field((0.0, 1.0, 0.0), description="Direction the front face looks to; need not be unit length.")
+    radius: Number = Field(..., gt=0, description="Radius, > 0.")
+
+    @field_validator("normal")
+    @classmethod
+    def _normal_nonzero(cls, normal: Any) -> Any:
+        if vec_length(normal) == 0:
+            raise ValueError("a disk's normal must not be the zero vector")
+        return normal
+
+
+class Box(ClosedShapeBase):
+    """An axis-aligned box between two opposite corners, made of six outward-facing quads.
+
+    ```yaml
+    type: box
+    min: [0, 0, 0]
+    max: [165, 330, 165]
+    material: white
+    transform: [{rotate: {axis: y, degrees: 15}}, {translate: [265, 0, 295]}]
+    ```
+    """
+
+    type: Literal["box"] = Field("box", description="Selects an axis-aligned box.")
+    min: Vec3 = Field(..., description="Corner with the smallest coordinates.")
+    max: Vec3 = Field(..., description="Corner with the largest coordinates; larger than `min` on every axis.")
+
+    @model_validator(mode="after")
+    def _positive_size(self) -> "Box":
+        for axis, lo, hi in zip("xyz", self.min, self.max):
+            if not hi > lo:
+                raise ValueError(f"the box has no positive size along {axis}: max.{axis} ({hi}) must exceed min.{axis} ({lo})")
+        return self
+
+
+class Group(StrictModel):
+    """A set of shapes defined once and placed any number of times by `instance` shapes.
+
+    ```yaml
+    type: group
+    shapes:
+      - {type: sphere, center: [0, 0, 0], radius: 10, material: white}
+    ```
+    """
+
+    type: Literal["group"] = Field("group", description="Marks a group; may be left out.")
+    shapes: list[Shape] = Field(..., min_length=1, description="The shapes of the group, in the group's own coordinates.")
+
+
+class Instance(StrictModel):
+    """One placement of a group, with its own transform.
+
+    ```yaml
+    type: instance
+    group: cluster
+    transform: [{rotate: {axis: y, degrees: 15}}, {translate: [-100, 270, 395]}]
+    ```
+    """
+
+    type: Literal["instance"] = Field("instance", description="Selects an instance of a group.")
+    group: GroupSlot = Field(..., description="A name from `groups:`, or an inline group.")
+    transform: Transform = Field(default_factory=list, description="Transform steps that place the group, first to last.")
+
+
+Shape = Annotated[
+    Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box, Instance],
+    Field(discriminator="type"),
+]
+"""Any shape, chosen by its `type`."""
+
+GroupSlot = Annotated[
+    Union[Annotated[Name, Tag("name")], Annotated[Group, Tag("inline")]],
+    Discriminator(
+        slot_kind,
+        custom_error_type="group_slot",
+        custom_error_message="expected a group name or a group definition",
+    ),
+]
+"""The name of a group under `groups:`, or an inline group."""
+
+SHAPE_CLASSES = (Sphere, MovingSphere, Quad, Triangle, Disk, Box, Instance)
+
+Group.model_rebuild()
+Instance.model_rebuild()

@@ -1,0 +1,136 @@
+"""Transform steps. A `transform:` is an ordered list of steps applied first to last.
+
+Each step is a one-key mapping whose key names its kind, so a list reads like the
+sentence it stands for: `[{rotate: {axis: y, degrees: 15}}, {translate: [265, 0, 295]}]`
+rotates, then moves.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, Discriminator, Field, Tag, field_validator, model_validator
+
+from .base import Number, StrictModel, Vec3, vec_length
+
+STEP_KINDS = ("translate", "rotate", "scale", "matrix")
+
+
+class Rotation(StrictModel):
+    """A rotation by `degrees` about `axis`, counter-clockwise looking down the axis (right-handed)."""
+
+    axis: Union[Literal["x", "y", "z"], Vec3] = Field(
+        "y", description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin."
+    )
+    degrees: Number = Field(..., description="Angle in degrees.")
+
+    @field_validator("axis")
+    @classmethod
+    def _axis_nonzero(cls, axis: Any) -> Any:
+        if not isinstance(axis, str) and vec_length(axis) == 0.0:
+            raise ValueError("a rotation axis must not be the zero vector")
+        return axis
+
+
+class TranslateStep(StrictModel):
+    """Move by an offset.
+
+    ```yaml
+    translate: [265, 0, 295]
+    ```
+    """
+
+    translate: Vec3 = Field(..., description="Offset added to every point.")
+
+
+class RotateStep(StrictModel):
+    """Rotate about an axis through the origin.
+
+    ```yaml
+    rotate: {axis: y, degrees: 15}
+    ```
+    """
+
+    rotate: Rotation = Field(..., description="Axis and angle of the rotation.")
+
+
+class ScaleStep(StrictModel):
+    """Scale about the origin, uniformly (one number) or per axis ([x, y, z]); no factor may be 0.
+
+    ```yaml
+    scale: [1, 2, 1]
+    ```
+    """
+
+    scale: Union[Number, Vec3] = Field(..., description="One factor, or one per axis; negative factors mirror.")
+
+    @field_validator("scale")
+    @classmethod
+    def _no_zero_factor(cls, scale: Any) -> Any:
+        factors = (scale,) if isinstance(scale, (int, float)) else scale
+        if any(f == 0 for f in factors):
+            raise ValueError("a scale factor of 0 flattens the shape to nothing; use a non-zero factor")
+        return scale
+
+
+class MatrixStep(StrictModel):
+    """Any affine map, as 3 rows [a, b, c, tx] (or 4 with a last row [0, 0, 0, 1]) acting on column vectors.
+
+    ```yaml
+    matrix: [[1, 0, 0, 0], [0, 1, 0, 2], [0, 0, 1, 0]]
+    ```
+    """
+
+    matrix: list[Annotated[list[Number], Field(min_length=4, max_length=4)]] = Field(
+        ..., min_length=3, max_length=4, description="Rows of the affine matrix, 3 or 4 rows of 4 numbers."
+    )
+
+    @model_validator(mode="after")
+    def _affine_and_invertible(self) -> "MatrixStep":
+        m = self.matrix
+        if len(m) == 4 and list(m[3]) != [0, 0, 0, 1]:
+            raise ValueError("the 4th row of an affine matrix must be [0, 0, 0, 1]")
+        a = [row[:3] for row in m[:3]]
+        det = (
+            a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+        )
+        scale = max(1e-300, max(abs(x) for row in a for x in row)) ** 3
+        if not math.isfinite(det) or abs(det) <= 1e-12 * scale:
+            raise ValueError("the matrix is singular (determinant 0): it would flatten the shape")
+        return self
+
+
+def step_kind(value: Any) -> str | None:
+    """A step's kind is its one key; `None` (an error) when no known key is present."""
+    if isinstance(value, BaseModel):
+        for kind in STEP_KINDS:
+            if kind in type(value).model_fields:
+                return kind
+        return None
+    if isinstance(value, dict):
+        for key in value:
+            if key in STEP_KINDS:
+                return key
+    return None
+
+
+TransformStep = Annotated[
+    Union[
+        Annotated[TranslateStep, Tag("translate")],
+        Annotated[RotateStep, Tag("rotate")],
+        Annotated[ScaleStep, Tag("scale")],
+        Annotated[MatrixStep, Tag("matrix")],
+    ],
+    Discriminator(
+        step_kind,
+        custom_error_type="transform_step",
+        custom_error_message="expected a step with one key: translate, rotate, scale or matrix",
+    ),
+]
+"""One transform step: `{translate: ...}`, `{rotate: ...}`, `{scale: ...}` or `{matrix: ...}`."""
+
+Transform = Annotated[list[TransformStep], Field(max_length=256)]
+"""An ordered list of transform steps, applied first to last."""

@@ -1,0 +1,95 @@
+"""From parsed data to a checked scene and its graph, reporting every error of a file in one run.
+
+Model validation stops nothing: when some definitions or shapes are invalid, the rest are
+validated on their own and resolved into a graph too, so a dangling reference elsewhere in
+the file is reported in the same run. References to definitions that were themselves invalid
+are not reported twice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import ValidationError
+
+from .diagnostics import Diagnostic, SceneError
+from .errors import data_path, diagnostics_from
+from .graph import SceneGraph, build_graph, graph_problems
+from .loading import SourceDocument, parse_file, parse_text
+from .scene import Scene
+
+_SECTIONS = ("textures", "materials", "media", "groups")
+
+
+@dataclass
+class LoadedScene:
+    """A scene that passed every check: the models, the resolved graph, and any warnings."""
+
+    scene: Scene
+    graph: SceneGraph
+    document: SourceDocument
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return self.graph.warnings
+
+
+def _partial_problems(doc: SourceDocument, exc: ValidationError) -> list[Diagnostic]:
+    """Graph errors of the valid remainder of a scene whose models failed validation."""
+    data = doc.data
+    if not isinstance(data, dict):
+        return []
+    bad_paths = {data_path(data, tuple(e["loc"])) for e in exc.errors(include_url=False)}
+    broken: dict[str, set] = {s: set() for s in _SECTIONS}
+    bad_shapes: set[int] = set()
+    drop_top: set[str] = set()
+    for path in bad_paths:
+        if not path:
+            continue
+        if path[0] in _SECTIONS and len(path) >= 2:
+            broken[path[0]].add(path[1])
+        elif path[0] == "shapes" and len(path) >= 2:
+            bad_shapes.add(path[1])
+        else:
+            drop_top.add(path[0])
+    pruned: dict[str, Any] = {k: v for k, v in data.items() if k not in drop_top and k not in _SECTIONS and k != "shapes"}
+    for section in _SECTIONS:
+        entries = data.get(section)
+        if isinstance(entries, dict):
+            pruned[section] = {k: v for k, v in entries.items() if k not in broken[section]}
+        elif section in data:
+            return []
+    shapes = data.get("shapes", [])
+    if not isinstance(shapes, list):
+        return []
+    pruned["shapes"] = [s for i, s in enumerate(shapes) if i not in bad_shapes]
+    shape_paths = [("shapes", i) for i in range(len(shapes)) if i not in bad_shapes]
+    try:
+        partial = Scene.model_validate(pruned)
+    except ValidationError:
+        return []  # errors hide each other too much to say more with confidence
+    return graph_problems(partial, doc, broken, shape_paths)
+
+
+def check_document(doc: SourceDocument) -> LoadedScene:
+    """Validate parsed data as a scene and resolve its graph; raises `SceneError` with every problem."""
+    try:
+        scene = Scene.model_validate(doc.data)
+    except ValidationError as exc:
+        problems = list(diagnostics_from(exc, doc, Scene))
+        problems += _partial_problems(doc, exc)
+        raise SceneError(problems) from None
+    return LoadedScene(scene, build_graph(scene, doc), doc)
+
+
+def load(path) -> LoadedScene:
+    """Load, validate and resolve a scene file (YAML or JSON); raises `SceneError`."""
+    return check_document(parse_file(path))
+
+
+def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None) -> LoadedScene:
+    """Like `load`, from text."""
+    return check_document(parse_text(text, file, syntax, base_dir=base_dir))
+
+

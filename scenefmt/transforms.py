@@ -21,7 +21,7 @@ class Rotation(StrictModel):
     """A rotation by `degrees` about `axis`, counter-clockwise looking down the axis (right-handed)."""
 
     axis: Union[Literal["x", "y", "z"], Vec3] = Field(
-        "y", description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin."
+        ..., description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin."
     )
     degrees: Number = Field(..., description="Angle in degrees.")
 

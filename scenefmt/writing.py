@@ -1,0 +1,84 @@
+"""Write scenes built in Python out as YAML or JSON that load back to the same models."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel
+from pydantic_core import PydanticUndefined
+
+from .scene import Scene
+
+SCHEMA_COMMENT = "# yaml-language-server: $schema={url}\n"
+
+
+def to_data(value: Any) -> Any:
+    """Plain data for a model tree: `type` first, then only the fields that differ from their defaults."""
+    if isinstance(value, BaseModel):
+        out: dict[str, Any] = {}
+        fields = type(value).model_fields
+        if "type" in fields:
+            out["type"] = value.type
+        # The kind's own fields first; the ones every shape shares last.
+        shared = ("material", "interior", "transform")
+        order = [n for n in fields if n != "type" and n not in shared] + [n for n in shared if n in fields]
+        for name in order:
+            info = fields[name]
+            current = getattr(value, name)
+            if info.default is not PydanticUndefined:
+                default = info.default
+            elif info.default_factory is not None:
+                default = info.default_factory()
+            else:
+                default = PydanticUndefined
+            if default is not PydanticUndefined and current == default:
+                continue
+            out[name] = to_data(current)
+        return out
+    if isinstance(value, dict):
+        return {k: to_data(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_data(v) for v in value]
+    if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
+        return int(value)
+    return value
+
+
+class _SceneDumper(yaml.SafeDumper):
+    """Vectors and short lists of numbers on one line; everything else in block style."""
+
+
+def _represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
+    flat = all(isinstance(x, (int, float, str)) and not isinstance(x, bool) for x in data)
+    nested_vectors = all(isinstance(x, list) and len(x) <= 4 for x in data) and len(data) <= 4
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flat or nested_vectors)
+
+
+def _represent_dict(dumper: yaml.SafeDumper, data: dict) -> yaml.Node:
+    return dumper.represent_mapping("tag:yaml.org,2002:map", data.items())
+
+
+_SceneDumper.add_representer(list, _represent_list)
+_SceneDumper.add_representer(dict, _represent_dict)
+
+
+def dumps(scene: Scene, syntax: str = "yaml", schema_url: str | None = None) -> str:
+    """The text of `scene` as YAML or JSON."""
+    data = to_data(scene)
+    data = {"version": scene.version, **{k: v for k, v in data.items() if k != "version"}}
+    if syntax == "json":
+        return json.dumps(data, indent=2) + "\n"
+    text = yaml.dump(data, Dumper=_SceneDumper, sort_keys=False, allow_unicode=True, width=120)
+    return (SCHEMA_COMMENT.format(url=schema_url) if schema_url else "") + text
+
+
+def dump(scene: Scene, path: str | Path, schema_url: str | None = None) -> None:
+    """Write `scene` to `path`, as JSON for a .json name and YAML otherwise (atomically)."""
+    path = Path(path)
+    syntax = "json" if path.suffix.lower() == ".json" else "yaml"
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(dumps(scene, syntax, schema_url if syntax == "yaml" else None), encoding="utf-8")
+    tmp.replace(path)

@@ -174,6 +174,7 @@ def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
     bounds = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
     if kind in bounds:
         limit = next(iter(ctx.values()))
+        limit = f"{limit:g}" if isinstance(limit, (int, float)) else limit
         return doc.diagnostic(path, f"expected a number {bounds[kind]} {limit}, found {_short(found)}")
     message = err["msg"]
     if message.startswith("Input should be "):

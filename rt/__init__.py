@@ -1,0 +1,1 @@
+"""The `rt` command line: validate, render and describe scene files."""

@@ -1,0 +1,95 @@
+"""Generate the scene JSON Schema from the models, in a dialect editors understand.
+
+pydantic emits JSON Schema 2020-12 (`$defs`, `prefixItems` for fixed-length vectors). The
+most used YAML editor tooling validates only up to draft-07, so the schema is rewritten into
+draft-07: `definitions` instead of `$defs`, tuple `items` arrays instead of `prefixItems`, and
+no OpenAPI `discriminator` keyword. `python -m scenefmt.schema_export` rewrites the committed
+file; `--check` fails when it is out of date.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from .scene import Scene
+
+SCHEMA_FILE = "scene.schema.json"
+DRAFT_07 = "http://json-schema.org/draft-07/schema#"
+SCHEMA_ID = "https://rt-render.invalid/schemas/scene.schema.json"
+
+# Keywords that draft-07 validators do not know; none may remain in the shipped schema.
+NEWER_KEYWORDS = frozenset(
+    {"$defs", "prefixItems", "unevaluatedProperties", "unevaluatedItems", "dependentRequired",
+     "dependentSchemas", "$anchor", "$dynamicRef", "$dynamicAnchor", "$recursiveRef", "minContains",
+     "maxContains", "discriminator"}
+)
+
+
+def _to_draft07(node: Any) -> Any:
+    if isinstance(node, list):
+        return [_to_draft07(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    out: dict[str, Any] = {}
+    for key, value in node.items():
+        if key == "discriminator":
+            continue
+        if key == "$defs":
+            out["definitions"] = {name: _to_draft07(v) for name, v in value.items()}
+        elif key == "$ref" and isinstance(value, str):
+            out["$ref"] = value.replace("#/$defs/", "#/definitions/")
+        elif key == "prefixItems":
+            out["items"] = _to_draft07(value)
+            out["additionalItems"] = False
+        elif key in ("properties", "definitions", "patternProperties"):
+            out[key] = {name: _to_draft07(v) for name, v in value.items()}
+        else:
+            out[key] = _to_draft07(value)
+    # In draft-07 a $ref ignores its siblings; wrap it so descriptions and defaults still apply.
+    if "$ref" in out and len(out) > 1:
+        ref = out.pop("$ref")
+        out = {"allOf": [{"$ref": ref}], **out}
+    return out
+
+
+def generate_schema() -> dict:
+    """The draft-07 JSON Schema of a scene file."""
+    schema = _to_draft07(Scene.model_json_schema(mode="validation"))
+    return {"$schema": DRAFT_07, "$id": SCHEMA_ID, **schema}
+
+
+def schema_json() -> str:
+    return json.dumps(generate_schema(), indent=2, sort_keys=False) + "\n"
+
+
+def shipped_schema_text() -> str:
+    """The schema file shipped with the installed package."""
+    return resources.files("scenefmt.schemas").joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+
+
+def committed_schema_path() -> Path:
+    """Where the committed schema lives in a source checkout."""
+    return Path(__file__).resolve().parent.parent / "schemas" / SCHEMA_FILE
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    path = committed_schema_path()
+    text = schema_json()
+    if "--check" in args:
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            print(f"{path} is out of date; run: python -m scenefmt.schema_export", file=sys.stderr)
+            return 1
+        print(f"{path} is up to date")
+        return 0
+    path.write_text(text, encoding="utf-8")
+    print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

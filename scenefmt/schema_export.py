@@ -49,6 +49,13 @@ def _to_draft07(node: Any) -> Any:
             out[key] = {name: _to_draft07(v) for name, v in value.items()}
         else:
             out[key] = _to_draft07(value)
+    # pydantic writes a dict with constrained keys as patternProperties, which lets other keys
+    # through unchecked; a propertyNames pattern rejects them as the models do.
+    patterns = out.pop("patternProperties", None)
+    if patterns is not None:
+        (pattern, value_schema), = patterns.items()
+        out["propertyNames"] = {**out.get("propertyNames", {}), "pattern": pattern}
+        out["additionalProperties"] = value_schema
     # In draft-07 a $ref ignores its siblings; wrap it so descriptions and defaults still apply.
     if "$ref" in out and len(out) > 1:
         ref = out.pop("$ref")

@@ -6,6 +6,7 @@ import math
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
+from pydantic_core import PydanticCustomError
 
 # Upper bounds that keep a hostile or mistyped file from asking for absurd work.
 MAX_IMAGE_SIDE = 32768
@@ -25,8 +26,16 @@ class StrictModel(BaseModel):
     )
 
 
+def field_error(field: str, message: str) -> PydanticCustomError:
+    """An error from a rule over several fields, to be reported at `field`."""
+    return PydanticCustomError("field_rule", message, {"field": field})
+
+
 def _require_triple(value: Any) -> Any:
     # Give one clear message for a wrong-length vector instead of per-index noise.
+    if not isinstance(value, (list, tuple)):
+        shown = "a mapping" if isinstance(value, dict) else repr(value)
+        raise ValueError(f"expected a list of 3 numbers [x, y, z], found {shown}")
     if isinstance(value, (list, tuple)):
         if len(value) != 3:
             raise ValueError(f"expected a list of 3 numbers, found {len(value)} items")

@@ -113,7 +113,14 @@ def _expected_tags(root: type, loc: tuple) -> list[str]:
 
 
 def _short(value: Any) -> str:
-    text = repr(value)
+    """A found value as the file spells it: `true`, `null`, `'text'`, `[1, 2]`."""
+    if value is True or value is False:
+        return "true" if value else "false"
+    if value is None:
+        return "null"
+    if isinstance(value, dict):
+        return "a mapping {" + ", ".join(str(k) for k in list(value)[:4]) + (", ..." if len(value) > 4 else "") + "}"
+    text = repr(value).replace("True", "true").replace("False", "false").replace("None", "null")
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -128,12 +135,31 @@ def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
         field = loc[-1]
         return doc.diagnostic(path + (field,), f"missing required key '{field}'")
 
+    if kind == "field_rule":
+        # A rule about several fields, placed at the field the message is about.
+        field = ctx.get("field")
+        return doc.diagnostic(path + ((field,) if field else ()), err["msg"])
+
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return doc.diagnostic(path, f"expected a mapping of keys to values, found {_short(found)}")
+
+    if kind in ("too_short", "too_long"):
+        bound = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
+        word = "at least" if kind == "too_short" else "at most"
+        return doc.diagnostic(path, f"expected {word} {bound} item{'s' if bound != 1 else ''}, found {ctx.get('actual_length')}")
+
+    if kind == "literal_error" and path == ("version",):
+        return doc.diagnostic(path, f"unsupported scene format version {_short(found)}; this rt reads version 1")
+
     if kind == "extra_forbidden":
         key = loc[-1]
         model = type_at(root, loc[:-1])
         allowed = list(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
+        allowed = (["type"] if "type" in allowed else []) + [a for a in allowed if a != "type"]
         hint = did_you_mean(key, allowed)
-        if not hint and allowed:
+        if key == "interior" and "type" in allowed:
+            hint = "; only closed shapes (sphere, moving_sphere, box) can hold an interior medium"
+        elif not hint and allowed:
             hint = f"; expected one of: {', '.join(allowed)}"
         return doc.diagnostic(path, f"unknown key '{key}'{hint}", of_key=True)
 
@@ -158,6 +184,11 @@ def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
             message = f"{message}, found {_short(found)}"
         return doc.diagnostic(path, message)
 
+    if kind == "background" and isinstance(found, dict) and isinstance(found.get("type"), str):
+        tags = ["solid", "sky"]
+        tag = found["type"]
+        return doc.diagnostic(path + ("type",), f"unknown type '{tag}'{did_you_mean(tag, tags)} (expected one of: {', '.join(tags)})")
+
     if kind in ("texture_slot", "material_slot", "medium_slot", "group_slot", "background"):
         return doc.diagnostic(path, f"{err['msg']}, found {_short(found)}")
 
@@ -169,6 +200,7 @@ def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
         return doc.diagnostic(
             path,
             f"{_short(found)} is not a valid name: use letters, digits, '_', '.' or '-', starting with a letter or '_'",
+            of_key=bool(loc) and loc[-1] == "[key]",
         )
 
     bounds = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
@@ -188,7 +220,20 @@ def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
 
 def diagnostics_from(exc: ValidationError, doc: SourceDocument, root: type) -> Iterator[Diagnostic]:
     seen = set()
-    for err in exc.errors(include_url=False):
+    errors = exc.errors(include_url=False)
+    # A misspelt key shows up twice: as an unknown key and as the missing one it was meant to be.
+    # The did-you-mean says it all, so the "missing" half is dropped.
+    misspelt = set()
+    for err in errors:
+        if err["type"] == "extra_forbidden":
+            model = type_at(root, tuple(err["loc"])[:-1])
+            if isinstance(model, type) and issubclass(model, BaseModel):
+                hint = did_you_mean(err["loc"][-1], list(model.model_fields))
+                if hint:
+                    misspelt.add((data_path(doc.data, tuple(err["loc"])[:-1]), hint.split("'")[1]))
+    for err in errors:
+        if err["type"] == "missing" and (data_path(doc.data, tuple(err["loc"])), err["loc"][-1]) in misspelt:
+            continue
         diag = _diagnostics_for(err, doc, root)
         key = (diag.line, diag.column, diag.message)
         if key not in seen:

@@ -14,7 +14,7 @@ from typing import Iterable, Optional, Union
 
 from . import affine
 from .affine import Affine
-from .diagnostics import Diagnostic, SceneError, did_you_mean
+from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
@@ -156,7 +156,7 @@ class _Resolver:
         if name in self.broken.get(section, ()):
             return  # already reported where it is defined
         kind = {"textures": "texture", "materials": "material", "media": "medium", "groups": "group"}[section]
-        defined = list(getattr(self.scene, section))
+        defined = list(getattr(self.scene, section)) + list(self.broken.get(section, ()))
         hint = did_you_mean(name, defined)
         if not hint:
             hint = f"; defined {section}: {', '.join(sorted(defined))}" if defined else f"; the scene defines no {section}"
@@ -286,7 +286,7 @@ class _Resolver:
         if len(self._group_stack) >= MAX_INSTANCE_NESTING:
             self.error(path, f"instances are nested more than {MAX_INSTANCE_NESTING} deep")
             return None
-        self._group_stack.append(name or f"<inline group at {path}>")
+        self._group_stack.append(name or f"(inline group at {format_path(path)})")
         try:
             node = GroupNode(name, path)
             for i, shape in enumerate(model.shapes):

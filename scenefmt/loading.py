@@ -44,6 +44,9 @@ class SourceDocument:
     values: dict[tuple, Position] = field(default_factory=dict)
     keys: dict[tuple, Position] = field(default_factory=dict)
     base_dir: Path = field(default_factory=Path.cwd)
+    # Problems that leave the data well defined (a duplicate key keeps its first value), reported
+    # together with the schema errors instead of stopping the load.
+    problems: list[Diagnostic] = field(default_factory=list)
 
     def position(self, path: tuple, of_key: bool = False) -> Position:
         """Where `path` is written; for a missing path, where its nearest written parent is."""
@@ -252,8 +255,10 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         return doc
     converter = _YamlConverter(doc)
     doc.data = converter.convert(root, ())
-    if converter.problems:
+    duplicates = [p for p in converter.problems if p.message.startswith("duplicate key")]
+    if len(duplicates) < len(converter.problems):
         raise SceneError(converter.problems)
+    doc.problems = duplicates
     return doc
 
 
@@ -282,8 +287,9 @@ class _JsonParser:
         line = bisect.bisect_right(self.line_starts, offset) - 1
         return (line + 1, offset - self.line_starts[line] + 1)
 
-    def fail(self, offset: int, message: str) -> SceneError:
-        return SceneError([Diagnostic(self.doc.file, *self.where(offset), (), f"JSON syntax error: {message}")])
+    def fail(self, offset: int, message: str, syntax: bool = True) -> SceneError:
+        prefix = "JSON syntax error: " if syntax else ""
+        return SceneError([Diagnostic(self.doc.file, *self.where(offset), (), prefix + message)])
 
     def skip(self, i: int) -> int:
         return _JSON_SPACE.match(self.text, i).end()
@@ -294,16 +300,15 @@ class _JsonParser:
         i = self.skip(i)
         if i != len(self.text):
             raise self.fail(i, "extra data after the end of the document")
-        if self.problems:
-            raise SceneError(self.problems)
+        self.doc.problems = self.problems
         return value
 
     def value(self, i: int, path: tuple, depth: int) -> tuple[Any, int]:
         self.nodes += 1
         if self.nodes > MAX_NODES:
-            raise self.fail(i, f"the document holds more than {MAX_NODES:,} values; refusing to load it")
+            raise self.fail(i, f"the document holds more than {MAX_NODES:,} values; refusing to load it", syntax=False)
         if depth > MAX_DEPTH:
-            raise self.fail(i, f"nesting deeper than {MAX_DEPTH} levels")
+            raise self.fail(i, f"nesting deeper than {MAX_DEPTH} levels", syntax=False)
         self.doc.values[path] = self.where(i)
         if i >= len(self.text):
             raise self.fail(i, "unexpected end of file, expected a value")
@@ -320,14 +325,21 @@ class _JsonParser:
         m = _JSON_NUMBER.match(self.text, i)
         if m and m.end() > i:
             s = m.group(0)
-            return (float(s) if (m.group(1) or m.group(2)) else int(s)), m.end()
+            if not (m.group(1) or m.group(2)):
+                return int(s), m.end()
+            number = float(s)
+            if number in (float("inf"), float("-inf")):
+                raise self.fail(i, f"the number {s} is too large to represent")
+            return number, m.end()
         raise self.fail(i, f"unexpected character {ch!r}, expected a value")
 
     def string(self, i: int) -> tuple[str, int]:
         try:
             return json.decoder.scanstring(self.text, i + 1, True)
         except json.JSONDecodeError as exc:
-            raise self.fail(exc.pos, exc.msg) from None
+            if exc.msg.startswith(("Invalid control character", "Unterminated string")):
+                raise self.fail(i, "unterminated string starting here (missing closing quote?)") from None
+            raise self.fail(exc.pos, exc.msg[0].lower() + exc.msg[1:]) from None
 
     def obj(self, i: int, path: tuple, depth: int) -> tuple[dict, int]:
         out: dict[str, Any] = {}
@@ -336,6 +348,8 @@ class _JsonParser:
             return out, i + 1
         while True:
             if not self.text.startswith('"', i):
+                if self.text.startswith("}", i) and out:
+                    raise self.fail(i, "trailing comma before '}'")
                 raise self.fail(i, "expected a key in double quotes")
             key_at = i
             key, i = self.string(i)
@@ -368,6 +382,8 @@ class _JsonParser:
         if self.text.startswith("]", i):
             return out, i + 1
         while True:
+            if self.text.startswith("]", i):
+                raise self.fail(i, "trailing comma before ']'")
             item, i = self.value(i, path + (len(out),), depth + 1)
             out.append(item)
             i = self.skip(i)

@@ -9,6 +9,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 from pydantic import Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import (
+    field_error,
     MAX_DEPTH,
     MAX_IMAGE_SIDE,
     MAX_SAMPLES,
@@ -64,13 +65,13 @@ class Camera(StrictModel):
     def _well_posed(self) -> "Camera":
         view = vec_sub(self.look_at, self.look_from)
         if vec_length(view) == 0.0:
-            raise ValueError("look_from and look_at are the same point, so there is no view direction")
+            raise field_error("look_at", "look_from and look_at are the same point, so there is no view direction")
         if vec_length(self.up) == 0.0:
-            raise ValueError("up must not be the zero vector")
+            raise field_error("up", "up must not be the zero vector")
         if vec_length(vec_cross(view, self.up)) <= 1e-12 * vec_length(view) * vec_length(self.up):
-            raise ValueError("up is parallel to the view direction (look_at - look_from); choose another up")
+            raise field_error("up", "up is parallel to the view direction (look_at - look_from); choose another up")
         if self.aperture is not None and self.aperture > 0 and self.defocus_angle > 0:
-            raise ValueError("give either defocus_angle or aperture, not both")
+            raise field_error("aperture", "give either defocus_angle or aperture, not both")
         return self
 
     @property
@@ -109,26 +110,29 @@ class Image(StrictModel):
     )
     aspect_ratio: Optional[Union[Number, Annotated[str, Field(pattern=_RATIO.pattern)]]] = Field(
         None,
-        description='Width over height, as a number or "W:H" (default 1); give either this or height.',
+        description='Width over height (> 0), as a number or a string "W:H" or "W/H" such as "16:9" (default 1); give either this or height.',
     )
     samples_per_pixel: int = Field(10, strict=True, ge=1, le=MAX_SAMPLES, description="Paths traced per pixel.")
     max_depth: int = Field(10, strict=True, ge=1, le=MAX_DEPTH, description="Most bounces a path may take.")
     seed: int = Field(0, strict=True, ge=0, le=2**63 - 1, description="Seed of the random numbers; the same seed gives the same image.")
 
-    @field_validator("aspect_ratio")
+    @field_validator("aspect_ratio", mode="before")
     @classmethod
     def _positive_ratio(cls, value: Any) -> Any:
         if value is None:
             return value
-        ratio = _parse_ratio(value)
-        if not ratio > 0:
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)) or (
+            isinstance(value, str) and not _RATIO.match(value)
+        ):
+            raise ValueError(f'expected a number or "W:H" such as "16:9", found {value!r}')
+        if not _parse_ratio(value) > 0:
             raise ValueError(f"the aspect ratio must be > 0, found {value!r}")
         return value
 
     @model_validator(mode="after")
     def _one_of_height_or_ratio(self) -> "Image":
         if self.height is not None and self.aspect_ratio is not None:
-            raise ValueError("give either height or aspect_ratio, not both")
+            raise field_error("aspect_ratio", "give either height or aspect_ratio, not both")
         return self
 
     @property
@@ -166,7 +170,7 @@ class Shutter(StrictModel):
     @model_validator(mode="after")
     def _ordered(self) -> "Shutter":
         if self.open > self.close:
-            raise ValueError(f"the shutter closes ({self.close}) before it opens ({self.open})")
+            raise field_error("close", f"the shutter closes ({self.close:g}) before it opens ({self.open:g})")
         return self
 
 

@@ -10,7 +10,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import Discriminator, Field, Tag, field_validator, model_validator
 
-from .base import Name, Number, StrictModel, Vec3, slot_kind, vec_cross, vec_length, vec_sub
+from .base import Name, Number, StrictModel, Vec3, field_error, slot_kind, vec_cross, vec_length, vec_sub
 from .materials import MaterialSlot
 from .media import MediumSlot
 from .transforms import Transform
@@ -59,7 +59,7 @@ class ClosedShapeBase(ShapeBase):
     @model_validator(mode="after")
     def _material_or_interior(self) -> "ClosedShapeBase":
         if self.material is None and self.interior is None:
-            raise ValueError("a shape needs a `material`, an `interior` medium, or both")
+            raise field_error("material", "a shape needs a `material`, an `interior` medium, or both")
         return self
 
 
@@ -124,7 +124,7 @@ class Quad(SurfaceBase):
         if vec_length(vec_cross(self.u, self.v)) <= _DEGENERATE * vec_length(self.u) * vec_length(self.v) or (
             vec_length(self.u) == 0 or vec_length(self.v) == 0
         ):
-            raise ValueError("the quad has zero area: `u` and `v` must be non-zero and not parallel")
+            raise field_error("v", "the quad has zero area: `u` and `v` must be non-zero and not parallel")
         return self
 
 
@@ -155,7 +155,7 @@ class Triangle(SurfaceBase):
         if vec_length(vec_cross(e1, e2)) <= _DEGENERATE * vec_length(e1) * vec_length(e2) or (
             vec_length(e1) == 0 or vec_length(e2) == 0
         ):
-            raise ValueError("the triangle has zero area: its vertices are collinear or repeated")
+            raise field_error("vertices", "the triangle has zero area: its vertices are collinear or repeated")
         return self
 
 
@@ -204,7 +204,7 @@ class Box(ClosedShapeBase):
     def _positive_size(self) -> "Box":
         for axis, lo, hi in zip("xyz", self.min, self.max):
             if not hi > lo:
-                raise ValueError(f"the box has no positive size along {axis}: max.{axis} ({hi}) must exceed min.{axis} ({lo})")
+                raise field_error("max", f"the box has no positive size along {axis}: max.{axis} ({hi:g}) must exceed min.{axis} ({lo:g})")
         return self
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import BaseModel, BeforeValidator, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import Number, StrictModel, Vec3, vec_length
 
@@ -18,12 +18,30 @@ STEP_KINDS = ("translate", "rotate", "scale", "matrix")
 
 
 class Rotation(StrictModel):
-    """A rotation by `degrees` about `axis`, counter-clockwise looking down the axis (right-handed)."""
+    """A rotation by `degrees` about `axis`: counter-clockwise when seen from the tip of the axis
+    looking back at the origin (right-handed).
+
+    ```yaml
+    axis: y
+    degrees: 15
+    ```
+    """
 
     axis: Union[Literal["x", "y", "z"], Vec3] = Field(
         ..., description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin."
     )
     degrees: Number = Field(..., description="Angle in degrees.")
+
+    @field_validator("axis", mode="before")
+    @classmethod
+    def _known_axis(cls, axis: Any) -> Any:
+        # One message for both spellings instead of one failure per union member.
+        if isinstance(axis, str):
+            if axis not in ("x", "y", "z"):
+                raise ValueError(f"expected x, y, z or a vector [x, y, z], found {axis!r}")
+        elif not isinstance(axis, (list, tuple)):
+            raise ValueError(f"expected x, y, z or a vector [x, y, z], found {axis!r}")
+        return axis
 
     @field_validator("axis")
     @classmethod
@@ -117,6 +135,15 @@ def step_kind(value: Any) -> str | None:
     return None
 
 
+def _one_key(value: Any) -> Any:
+    if isinstance(value, dict) and len(value) > 1 and any(k in STEP_KINDS for k in value):
+        raise ValueError(
+            f"a transform step has exactly one key, found {len(value)}: {', '.join(map(str, value))}; "
+            "write each step as its own list item"
+        )
+    return value
+
+
 TransformStep = Annotated[
     Union[
         Annotated[TranslateStep, Tag("translate")],
@@ -129,6 +156,7 @@ TransformStep = Annotated[
         custom_error_type="transform_step",
         custom_error_message="expected a step with one key: translate, rotate, scale or matrix",
     ),
+    BeforeValidator(_one_key),
 ]
 """One transform step: `{translate: ...}`, `{rotate: ...}`, `{scale: ...}` or `{matrix: ...}`."""
 

@@ -77,10 +77,16 @@ def check_document(doc: SourceDocument) -> LoadedScene:
     try:
         scene = Scene.model_validate(doc.data)
     except ValidationError as exc:
-        problems = list(diagnostics_from(exc, doc, Scene))
+        problems = doc.problems + list(diagnostics_from(exc, doc, Scene))
         problems += _partial_problems(doc, exc)
         raise SceneError(problems) from None
-    return LoadedScene(scene, build_graph(scene, doc), doc)
+    try:
+        graph = build_graph(scene, doc)
+    except SceneError as exc:
+        raise SceneError(doc.problems + exc.diagnostics) from None
+    if doc.problems:
+        raise SceneError(doc.problems)
+    return LoadedScene(scene, graph, doc)
 
 
 def load(path) -> LoadedScene:

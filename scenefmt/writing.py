@@ -16,11 +16,14 @@ SCHEMA_COMMENT = "# yaml-language-server: $schema={url}\n"
 
 
 def to_data(value: Any) -> Any:
-    """Plain data for a model tree: `type` first, then only the fields that differ from their defaults."""
+    """Plain data for a model tree: `type` first, then the fields that were set or differ from their
+    defaults (so a generated file still shows the book's `ior: 1.5`)."""
     if isinstance(value, BaseModel):
         out: dict[str, Any] = {}
         fields = type(value).model_fields
-        if "type" in fields:
+        if "type" in fields and fields["type"].is_required() or (
+            "type" in fields and type(value).__name__ != "Group"
+        ):
             out["type"] = value.type
         # The kind's own fields first; the ones every shape shares last.
         shared = ("material", "interior", "transform")
@@ -34,7 +37,7 @@ def to_data(value: Any) -> Any:
                 default = info.default_factory()
             else:
                 default = PydanticUndefined
-            if default is not PydanticUndefined and current == default:
+            if default is not PydanticUndefined and current == default and name not in value.model_fields_set:
                 continue
             out[name] = to_data(current)
         return out
@@ -51,18 +54,53 @@ class _SceneDumper(yaml.SafeDumper):
     """Vectors and short lists of numbers on one line; everything else in block style."""
 
 
+_FLOW_WIDTH = 100
+
+
+def _flow_text(data: Any) -> str | None:
+    """The text of `data` written on one line (in YAML flow style)."""
+    if isinstance(data, dict):
+        parts = []
+        for k, v in data.items():
+            inner = _flow_text(v)
+            if inner is None:
+                return None
+            parts.append(f"{k}: {inner}")
+        return "{" + ", ".join(parts) + "}"
+    if isinstance(data, list):
+        parts = [_flow_text(x) for x in data]
+        return None if None in parts else "[" + ", ".join(parts) + "]"
+    return yaml.dump(data, Dumper=yaml.SafeDumper, default_flow_style=True).strip().removesuffix("...").strip()
+
+
+def _short_enough(data: Any) -> bool:
+    text = _flow_text(data)
+    return text is not None and len(text) <= _FLOW_WIDTH
+
+
 def _represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
-    flat = all(isinstance(x, (int, float, str)) and not isinstance(x, bool) for x in data)
-    nested_vectors = all(isinstance(x, list) and len(x) <= 4 for x in data) and len(data) <= 4
-    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flat or nested_vectors)
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=_short_enough(data))
 
 
 def _represent_dict(dumper: yaml.SafeDumper, data: dict) -> yaml.Node:
-    return dumper.represent_mapping("tag:yaml.org,2002:map", data.items())
+    # Small mappings (a shape, a material, a transform step) read best on one line.
+    return dumper.represent_mapping("tag:yaml.org,2002:map", data.items(), flow_style=_short_enough(data))
 
 
 _SceneDumper.add_representer(list, _represent_list)
 _SceneDumper.add_representer(dict, _represent_dict)
+
+
+def _compact_json(data: Any, indent: str = "") -> str:
+    """Indented JSON with lists of numbers (vectors, colours) kept on one line."""
+    if isinstance(data, dict) and data:
+        inner = indent + "  "
+        items = [f"{inner}{json.dumps(k)}: {_compact_json(v, inner)}" for k, v in data.items()]
+        return "{\n" + ",\n".join(items) + "\n" + indent + "}"
+    if isinstance(data, list) and data and any(isinstance(x, (dict, list)) for x in data):
+        inner = indent + "  "
+        return "[\n" + ",\n".join(inner + _compact_json(x, inner) for x in data) + "\n" + indent + "]"
+    return json.dumps(data)
 
 
 def dumps(scene: Scene, syntax: str = "yaml", schema_url: str | None = None) -> str:
@@ -70,7 +108,7 @@ def dumps(scene: Scene, syntax: str = "yaml", schema_url: str | None = None) -> 
     data = to_data(scene)
     data = {"version": scene.version, **{k: v for k, v in data.items() if k != "version"}}
     if syntax == "json":
-        return json.dumps(data, indent=2) + "\n"
+        return _compact_json(data) + "\n"
     text = yaml.dump(data, Dumper=_SceneDumper, sort_keys=False, allow_unicode=True, width=120)
     return (SCHEMA_COMMENT.format(url=schema_url) if schema_url else "") + text
 

@@ -14,10 +14,6 @@ from scenefmt.loading import parse_text
 from scenefmt.scene import Scene
 from scenefmt.validation import loads
 
-# Models whose docstring has no ```yaml example yet. Remove a name once its example is written.
-KNOWN_WITHOUT_EXAMPLE = {"Rotation"}
-
-
 def _reachable_models(root: type[BaseModel]) -> list[type[BaseModel]]:
     """Every model reachable from `root` through field annotations (independent of docgen's walk)."""
     found: list[type[BaseModel]] = []
@@ -164,21 +160,13 @@ def test_internal_links_point_at_headings(doc_text: str, blocks) -> None:
 @pytest.mark.parametrize("model", ALL_MODELS, ids=lambda m: m.__name__)
 def test_docstring_example_validates(model) -> None:
     example = _example(model)
-    if example is None:
-        assert model.__name__ in KNOWN_WITHOUT_EXAMPLE, f"{model.__name__}'s docstring has no ```yaml example"
-        return
+    assert example is not None, f"{model.__name__}'s docstring has no ```yaml example"
     if model is Scene:
         loaded = loads(example)
         assert isinstance(loaded.scene, Scene)
         return
     doc = parse_text(example)
     model.model_validate(doc.data)
-
-
-def test_known_missing_examples_are_still_missing() -> None:
-    for model in ALL_MODELS:
-        if model.__name__ in KNOWN_WITHOUT_EXAMPLE:
-            assert _example(model) is None, f"{model.__name__} has an example now; drop it from KNOWN_WITHOUT_EXAMPLE"
 
 
 # (4) Every model and field is described.

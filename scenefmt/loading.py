@@ -95,7 +95,7 @@ _CoreSchemaResolver.add_implicit_resolver(
 )
 
 
-class _ComposingLoader(Reader, Scanner, Parser, Composer, BaseConstructor, _CoreSchemaResolver):
+class _PureComposingLoader(Reader, Scanner, Parser, Composer, BaseConstructor, _CoreSchemaResolver):
     """Builds a node tree only; values are converted by `_YamlConverter`, never by tag constructors."""
 
     def __init__(self, stream: str):
@@ -105,6 +105,22 @@ class _ComposingLoader(Reader, Scanner, Parser, Composer, BaseConstructor, _Core
         Composer.__init__(self)
         BaseConstructor.__init__(self)
         _CoreSchemaResolver.__init__(self)
+
+
+if yaml.__with_libyaml__:
+    from yaml.cyaml import CParser
+
+    class _LibyamlComposingLoader(CParser, BaseConstructor, _CoreSchemaResolver):
+        """The same, with libyaml's C parser and composer (about ten times faster)."""
+
+        def __init__(self, stream: str):
+            CParser.__init__(self, stream)
+            BaseConstructor.__init__(self)
+            _CoreSchemaResolver.__init__(self)
+
+    _ComposingLoader: type = _LibyamlComposingLoader
+else:  # pragma: no cover - PyYAML wheels ship libyaml
+    _ComposingLoader = _PureComposingLoader
 
 
 def _mark_position(mark: Any) -> Position:

@@ -248,7 +248,9 @@ class Scene(StrictModel):
     image: Image = Field(default_factory=Image, description="Image size and sampling.")
     shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")
     background: Background = Field(
-        default_factory=SkyBackground, description="Radiance of rays that leave the scene: a colour, `solid` or `sky`."
+        default_factory=SkyBackground,
+        description="Radiance of rays that leave the scene: a colour, `solid` or `sky`. The default is the first "
+        "book's sky gradient, so a scene without lights is still visible; the second book's scenes set it explicitly.",
     )
     textures: dict[Name, Texture] = Field(default_factory=dict, description="Named textures.")
     materials: dict[Name, Material] = Field(default_factory=dict, description="Named materials.")

@@ -64,7 +64,9 @@ class ClosedShapeBase(ShapeBase):
 
 
 class Sphere(ClosedShapeBase):
-    """A sphere.
+    """A sphere. The radius must be positive: the first book's negative-radius trick for a hollow
+    glass ball is not supported; model the air bubble as a smaller sphere of dielectric with
+    ior 1/1.5 inside the glass one (as `scenes/weekend_glass.yaml` does).
 
     ```yaml
     type: sphere

@@ -31,6 +31,7 @@ from .base import Color, Name, Vec3
 from .materials import Material, MaterialSlot
 from .media import Medium, MediumSlot
 from .scene import Background, Scene
+from .writing import field_default
 from .shapes import Group, GroupSlot, Shape
 from .textures import Texture, TextureSlot
 from .transforms import Transform, TransformStep
@@ -359,14 +360,6 @@ def plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     return value
-
-
-def field_default(info: FieldInfo) -> Any:
-    if info.default is not PydanticUndefined:
-        return info.default
-    if info.default_factory is not None:
-        return info.default_factory()
-    return PydanticUndefined
 
 
 _PLAIN_SCALAR = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")

@@ -8,11 +8,21 @@ from typing import Any
 
 import yaml
 from pydantic import BaseModel
+from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
 from .scene import Scene
 
 SCHEMA_COMMENT = "# yaml-language-server: $schema={url}\n"
+
+
+def field_default(info: FieldInfo) -> Any:
+    """A field's default value (calling its factory), or `PydanticUndefined` for a required field."""
+    if info.default is not PydanticUndefined:
+        return info.default
+    if info.default_factory is not None:
+        return info.default_factory()
+    return PydanticUndefined
 
 
 def to_data(value: Any) -> Any:
@@ -31,12 +41,7 @@ def to_data(value: Any) -> Any:
         for name in order:
             info = fields[name]
             current = getattr(value, name)
-            if info.default is not PydanticUndefined:
-                default = info.default
-            elif info.default_factory is not None:
-                default = info.default_factory()
-            else:
-                default = PydanticUndefined
+            default = field_default(info)
             if default is not PydanticUndefined and current == default and name not in value.model_fields_set:
                 continue
             out[name] = to_data(current)

@@ -1,0 +1,187 @@
+"""Bounding volume hierarchy: binned SAH build, flattened depth-first.
+
+The tree is built over primitive bounds and stored as arrays: node i's first child is node
+i + 1, its second child is `node_a[i]`; a leaf has `node_n[i] > 0` primitives starting at
+`node_a[i]` in the permutation `order`. The build runs in Numba, so a million primitives build
+in about a second.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .config import BVH_BINS, BVH_MAX_LEAF
+
+# A flat box is padded to this thickness (relative to the scene's scale) so slab tests stay robust.
+PAD_RELATIVE = 1e-9
+TRAVERSAL_COST = 1.0
+# Below this depth splits halve the range by index, so no tree is deeper than about
+# SAH_DEPTH_LIMIT + log2(n) and the traversal stack (config.BVH_STACK) cannot overflow.
+SAH_DEPTH_LIMIT = 32
+
+
+class Bvh(NamedTuple):
+    lo: np.ndarray  # (m, 3) float64
+    hi: np.ndarray  # (m, 3) float64
+    a: np.ndarray  # (m,) int32: leaf -> first primitive slot; interior -> second child
+    n: np.ndarray  # (m,) int32: leaf -> primitive count; interior -> 0
+    axis: np.ndarray  # (m,) int32: split axis of an interior node
+    order: np.ndarray  # (k,) int32: primitive index of each leaf slot
+
+
+@njit(cache=True, error_model="numpy")
+def _sah_split(lo, hi, idx, start, end, bins):
+    """(axis, position, cost) of the best binned-SAH split of idx[start:end]; axis -1 if none."""
+    cmin = np.full(3, np.inf)
+    cmax = np.full(3, -np.inf)
+    for k in range(start, end):
+        j = idx[k]
+        for ax in range(3):
+            c = 0.5 * (lo[j, ax] + hi[j, ax])
+            cmin[ax] = min(cmin[ax], c)
+            cmax[ax] = max(cmax[ax], c)
+    best_axis, best_pos, best_cost = -1, 0.0, np.inf
+    count = np.zeros(bins, np.int64)
+    blo = np.empty((bins, 3))
+    bhi = np.empty((bins, 3))
+    for ax in range(3):
+        extent = cmax[ax] - cmin[ax]
+        if not extent > 0.0:
+            continue
+        count[:] = 0
+        blo[:, :] = np.inf
+        bhi[:, :] = -np.inf
+        inv = bins / extent
+        for k in range(start, end):
+            j = idx[k]
+            c = 0.5 * (lo[j, ax] + hi[j, ax])
+            b = min(bins - 1, int((c - cmin[ax]) * inv))
+            count[b] += 1
+            for q in range(3):
+                blo[b, q] = min(blo[b, q], lo[j, q])
+                bhi[b, q] = max(bhi[b, q], hi[j, q])
+        # Sweep from the right to get each suffix's area and count, then from the left.
+        right_area = np.zeros(bins)
+        right_count = np.zeros(bins, np.int64)
+        rlo = np.full(3, np.inf)
+        rhi = np.full(3, -np.inf)
+        rc = 0
+        for b in range(bins - 1, 0, -1):
+            rc += count[b]
+            for q in range(3):
+                rlo[q] = min(rlo[q], blo[b, q])
+                rhi[q] = max(rhi[q], bhi[b, q])
+            right_count[b] = rc
+            right_area[b] = _area(rlo, rhi) if rc > 0 else 0.0
+        llo = np.full(3, np.inf)
+        lhi = np.full(3, -np.inf)
+        lc = 0
+        for b in range(0, bins - 1):
+            lc += count[b]
+            for q in range(3):
+                llo[q] = min(llo[q], blo[b, q])
+                lhi[q] = max(lhi[q], bhi[b, q])
+            if lc == 0 or right_count[b + 1] == 0:
+                continue
+            cost = lc * _area(llo, lhi) + right_count[b + 1] * right_area[b + 1]
+            if cost < best_cost:
+                best_axis, best_pos, best_cost = ax, cmin[ax] + (b + 1) / inv, cost
+    return best_axis, best_pos, best_cost
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def _area(lo, hi):
+    dx, dy, dz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
+    return dx * dy + dy * dz + dz * dx
+
+
+@njit(cache=True, error_model="numpy")
+def _build(lo, hi, bins, max_leaf):
+    n = lo.shape[0]
+    idx = np.arange(n).astype(np.int32)
+    cap = max(1, 2 * n)
+    node_lo = np.empty((cap, 3))
+    node_hi = np.empty((cap, 3))
+    node_a = np.zeros(cap, np.int32)
+    node_n = np.zeros(cap, np.int32)
+    node_axis = np.zeros(cap, np.int32)
+    # Work stack: (start, end, parent whose second child this is or -1, depth).
+    stack = np.empty((128, 4), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = 0, n, -1, 0
+    sp = 1
+    count = 0
+    while sp > 0:
+        sp -= 1
+        start, end, parent, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3]
+        node = count
+        count += 1
+        if parent >= 0:
+            node_a[parent] = node
+        for q in range(3):
+            node_lo[node, q] = np.inf
+            node_hi[node, q] = -np.inf
+        for k in range(start, end):
+            j = idx[k]
+            for q in range(3):
+                node_lo[node, q] = min(node_lo[node, q], lo[j, q])
+                node_hi[node, q] = max(node_hi[node, q], hi[j, q])
+        size = end - start
+        axis, pos, cost = -1, 0.0, np.inf
+        if size > 1 and depth < SAH_DEPTH_LIMIT:
+            axis, pos, cost = _sah_split(lo, hi, idx, start, end, bins)
+        # SAH in units of one primitive test: a node visit costs about as much as one test.
+        node_area = _area(node_lo[node], node_hi[node])
+        leaf_cost = size * node_area
+        if size <= max_leaf and not cost + TRAVERSAL_COST * node_area < leaf_cost:
+            axis = -1
+        mid = start
+        if axis >= 0:
+            # Partition by centroid against the chosen plane.
+            i, j = start, end - 1
+            while i <= j:
+                c = 0.5 * (lo[idx[i], axis] + hi[idx[i], axis])
+                if c < pos:
+                    i += 1
+                else:
+                    idx[i], idx[j] = idx[j], idx[i]
+                    j -= 1
+            mid = i
+            if mid == start or mid == end:
+                axis = -1
+        if axis < 0 and size > max_leaf:
+            # No useful plane (coincident centroids): split the range in half by index.
+            axis = 0
+            mid = start + size // 2
+        if axis < 0:
+            node_a[node] = start
+            node_n[node] = size
+            continue
+        node_axis[node] = axis
+        node_n[node] = 0
+        if sp + 2 > stack.shape[0]:
+            bigger = np.empty((stack.shape[0] * 2, 4), np.int64)
+            bigger[:sp] = stack[:sp]
+            stack = bigger
+        # Right first so the left child is popped next and lands at node + 1.
+        stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3] = mid, end, node, depth + 1
+        sp += 1
+        stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3] = start, mid, -1, depth + 1
+        sp += 1
+    return node_lo[:count].copy(), node_hi[:count].copy(), node_a[:count].copy(), node_n[:count].copy(), node_axis[:count].copy(), idx
+
+
+def build_bvh(lo: np.ndarray, hi: np.ndarray) -> Bvh:
+    """A BVH over boxes [lo[i], hi[i]]; an empty input gives one empty leaf."""
+    lo = np.ascontiguousarray(lo, dtype=np.float64)
+    hi = np.ascontiguousarray(hi, dtype=np.float64)
+    if lo.shape[0] == 0:
+        empty = np.full((1, 3), np.inf)
+        return Bvh(empty, -empty, np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int32))
+    # Pad flat boxes (axis-aligned quads) so a ray in their plane still meets them.
+    scale = np.maximum(np.abs(lo), np.abs(hi)).max(axis=1, keepdims=True) + (hi - lo).max(axis=1, keepdims=True)
+    pad = np.maximum(PAD_RELATIVE * scale, 1e-300)
+    lo = lo - pad
+    hi = hi + pad
+    node_lo, node_hi, a, n, axis, order = _build(lo, hi, BVH_BINS, BVH_MAX_LEAF)
+    return Bvh(node_lo, node_hi, a, n, axis, order)

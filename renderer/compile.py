@@ -1,0 +1,430 @@
+"""Flatten a scene graph into a FlatScene: tables of primitives, materials and textures, and BVHs.
+
+Transforms are baked into primitives wherever the shape keeps its kind (a transformed quad,
+triangle, disk or box is still made of parallelograms; a sphere under a similarity is still a
+sphere), so the common case pays nothing for instancing. Groups placed by instances become
+shared bottom-level trees; a sphere under a non-uniform scale becomes a one-shape instance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from scenefmt import affine
+from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode, TextureNode
+from scenefmt.scene import SkyBackground
+
+from . import layout as L
+from .bvh import build_bvh
+from .flat import FlatScene
+from .textures import load_image_texels, perlin_tables
+
+_BOX_FACES = (
+    # (corner selector, u axis, v axis) as in the book: all six u x v point outward.
+    ((0, 0, 1), (1, 0, 0), (0, 1, 0)),  # front  z = max
+    ((1, 0, 1), (0, 0, -1), (0, 1, 0)),  # right  x = max
+    ((1, 0, 0), (-1, 0, 0), (0, 1, 0)),  # back   z = min
+    ((0, 0, 0), (0, 0, 1), (0, 1, 0)),  # left   x = min
+    ((0, 1, 1), (1, 0, 0), (0, 0, -1)),  # top    y = max
+    ((0, 0, 0), (1, 0, 0), (0, 0, 1)),  # bottom y = min
+)
+
+
+def _linear(m) -> np.ndarray:
+    return np.array([row[:3] for row in m], dtype=np.float64)
+
+
+def _apply(m, p) -> np.ndarray:
+    return np.array(affine.apply_point(m, p), dtype=np.float64)
+
+
+def _similarity_scale(lin: np.ndarray) -> Optional[float]:
+    """s when lin = s * (an orthogonal matrix), else None."""
+    g = lin.T @ lin
+    s2 = g[0, 0]
+    if s2 <= 0 or not np.allclose(g, s2 * np.eye(3), rtol=1e-9, atol=1e-12 * s2):
+        return None
+    return math.sqrt(s2)
+
+
+def _inverse_affine(m: np.ndarray) -> np.ndarray:
+    full = np.eye(4)
+    full[:3, :] = m.reshape(3, 4)
+    return np.linalg.inv(full)[:3, :].reshape(12)
+
+
+def _planar_row(q, u, v, flip: bool) -> np.ndarray:
+    row = np.zeros(L.PRIM_WIDTH)
+    n = np.cross(u, v)
+    nn = float(n @ n)
+    unit = n / math.sqrt(nn)
+    if flip:
+        unit = -unit  # a mirroring transform keeps the front face where it was geometrically
+    w = n / nn
+    row[0:3], row[3:6] = q, unit
+    row[6] = float(unit @ q)
+    # alpha = w . (p x v) = p . (v x w); beta = w . (u x p) = p . (w x u)
+    row[7:10] = np.cross(v, w)
+    row[10:13] = np.cross(w, u)
+    return row
+
+
+@dataclass
+class _Tables:
+    kind: list = field(default_factory=list)
+    rows: list = field(default_factory=list)
+    mat: list = field(default_factory=list)
+    lo: list = field(default_factory=list)
+    hi: list = field(default_factory=list)
+
+
+class _Compiler:
+    def __init__(self, graph: SceneGraph):
+        self.graph = graph
+        self.shutter_open = float(graph.shutter.open)
+        self.shutter_close = float(graph.shutter.close)
+        self.tex_rows: list[tuple] = []
+        self.tex_ids: dict[int, int] = {}
+        self.texel_chunks: list[np.ndarray] = []
+        self.texel_count = 0
+        self.noise: list[tuple[np.ndarray, np.ndarray]] = []
+        self.mat_rows: list[tuple] = []
+        self.mat_ids: dict[int, int] = {}
+        self.phase_ids: dict[int, int] = {}
+        self.bnd_kind: list[int] = []
+        self.bnd_rows: list[np.ndarray] = []
+        self.blas: list[_Tables] = []
+        self.blas_of_group: dict[int, int] = {}
+        self.instances: list[tuple[int, tuple]] = []
+
+    # --- textures and materials ----------------------------------------------------------------
+
+    def texture(self, node: TextureNode) -> int:
+        key = id(node)
+        if key in self.tex_ids:
+            return self.tex_ids[key]
+        m = node.model
+        index = len(self.tex_rows)
+        self.tex_ids[key] = index
+        self.tex_rows.append(None)  # reserve the slot; children come after
+        color, param, child = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0), (-1, -1)
+        if m.type == "solid":
+            kind, color = L.TEX_SOLID, m.color
+        elif m.type == "checker":
+            kind = L.TEX_CHECKER
+            param = (1.0 / m.scale, 0.0, 0.0, 0.0)
+            child = (self.texture(node.inputs["even"]), self.texture(node.inputs["odd"]))
+        elif m.type == "image":
+            kind = L.TEX_IMAGE
+            texels = load_image_texels(node.image_path, m.colorspace)
+            h, w = texels.shape[:2]
+            param = (float(self.texel_count), float(w), float(h), 0.0)
+            self.texel_chunks.append(texels.reshape(-1, 3))
+            self.texel_count += w * h
+        else:
+            kind = L.TEX_NOISE
+            form = {"plain": L.NOISE_PLAIN, "turbulence": L.NOISE_TURBULENCE, "marble": L.NOISE_MARBLE}[m.form]
+            param = (m.scale, float(form), float(m.octaves), float(len(self.noise)))
+            color = m.color
+            self.noise.append(perlin_tables(m.seed))
+        self.tex_rows[index] = (kind, tuple(color), tuple(param), tuple(child))
+        return index
+
+    def material(self, node: MaterialNode) -> int:
+        key = id(node)
+        if key not in self.mat_ids:
+            m = node.model
+            kind = {"lambertian": L.LAMBERTIAN, "metal": L.METAL, "dielectric": L.DIELECTRIC,
+                    "diffuse_light": L.DIFFUSE_LIGHT, "isotropic": L.ISOTROPIC}[m.type]
+            slot = node.textures.get("albedo") or node.textures.get("emit")
+            tex = self.texture(slot) if slot is not None else -1
+            param = (getattr(m, "fuzz", 0.0), getattr(m, "ior", 1.0))
+            self.mat_ids[key] = len(self.mat_rows)
+            self.mat_rows.append((kind, tex, param))
+        return self.mat_ids[key]
+
+    def phase(self, medium: MediumNode) -> int:
+        """The isotropic material that scatters inside a medium."""
+        key = id(medium)
+        if key not in self.phase_ids:
+            self.phase_ids[key] = len(self.mat_rows)
+            self.mat_rows.append((L.ISOTROPIC, self.texture(medium.albedo), (0.0, 1.0)))
+        return self.phase_ids[key]
+
+    # --- primitives ----------------------------------------------------------------------------
+
+    def sphere_row(self, shape: ShapeNode, m) -> Optional[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        """(kind, row, lo, hi) of a sphere baked through m, or None if m is not a similarity."""
+        lin = _linear(m)
+        s = _similarity_scale(lin)
+        if s is None:
+            return None
+        rot = (lin / s).T  # object_from_world rotation for the uv frame
+        model = shape.model
+        r = model.radius * s
+        row = np.zeros(L.PRIM_WIDTH)
+        row[3] = r
+        if model.type == "sphere":
+            c = _apply(m, model.center)
+            row[0:3] = c
+            row[4:13] = rot.reshape(9)
+            return L.SPHERE, row, c - r, c + r
+        c0, c1 = _apply(m, model.center0), _apply(m, model.center1)
+        span = self.shutter_close - self.shutter_open
+        vel = (c1 - c0) / span if span > 0 else np.zeros(3)
+        row[0:3] = c0 - self.shutter_open * vel
+        row[4:7] = vel
+        row[7:16] = rot.reshape(9)
+        if span == 0:
+            c1 = c0
+        return L.MOVING_SPHERE, row, np.minimum(c0, c1) - r, np.maximum(c0, c1) + r
+
+    def planar_rows(self, shape: ShapeNode, m) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        lin = _linear(m)
+        flip = np.linalg.det(lin) < 0
+        model = shape.model
+        out = []
+
+        def add(kind, q, u, v, corners):
+            q2, u2, v2 = _apply(m, q), lin @ np.asarray(u, float), lin @ np.asarray(v, float)
+            pts = np.array([q2 + a * u2 + b * v2 for a, b in corners])
+            out.append((kind, _planar_row(q2, u2, v2, flip), pts.min(axis=0), pts.max(axis=0)))
+
+        if model.type == "quad":
+            add(L.QUAD, model.q, model.u, model.v, ((0, 0), (1, 0), (0, 1), (1, 1)))
+        elif model.type == "triangle":
+            p0, p1, p2 = (np.asarray(p, float) for p in model.vertices)
+            add(L.TRIANGLE, p0, p1 - p0, p2 - p0, ((0, 0), (1, 0), (0, 1)))
+        elif model.type == "disk":
+            n = np.asarray(model.normal, float)
+            n = n / np.linalg.norm(n)
+            helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+            a = np.cross(helper, n)
+            a /= np.linalg.norm(a)
+            b = np.cross(n, a)  # a x b = n
+            r = model.radius
+            q2, u2, v2 = _apply(m, model.center), lin @ (a * r), lin @ (b * r)
+            ext = np.sqrt(u2 * u2 + v2 * v2)
+            out.append((L.DISK, _planar_row(q2, u2, v2, flip), q2 - ext, q2 + ext))
+        else:  # box
+            lo, hi = np.asarray(model.min, float), np.asarray(model.max, float)
+            size = hi - lo
+            for corner, u_axis, v_axis in _BOX_FACES:
+                q = np.where(np.array(corner) > 0, hi, lo)
+                u = np.array(u_axis) * size
+                v = np.array(v_axis) * size
+                add(L.QUAD, q, u, v, ((0, 0), (1, 0), (0, 1), (1, 1)))
+        return out
+
+    def shape_rows(self, shape: ShapeNode, m):
+        if shape.kind in ("sphere", "moving_sphere"):
+            row = self.sphere_row(shape, m)
+            return None if row is None else [row]
+        return self.planar_rows(shape, m)
+
+    def add_shape(self, tables: _Tables, shape: ShapeNode, m) -> bool:
+        """Append shape's rows (surface and medium) baked through m; False if it needs an instance."""
+        rows = self.shape_rows(shape, m)
+        if rows is None:
+            return False
+        if shape.material is not None:
+            mat = self.material(shape.material)
+            for kind, row, lo, hi in rows:
+                tables.kind.append(kind)
+                tables.rows.append(row)
+                tables.mat.append(mat)
+                tables.lo.append(lo)
+                tables.hi.append(hi)
+        if shape.interior is not None:
+            start = len(self.bnd_rows)
+            for kind, row, _, _ in rows:
+                self.bnd_kind.append(kind)
+                self.bnd_rows.append(row)
+            medium = np.zeros(L.PRIM_WIDTH)
+            medium[0] = -1.0 / shape.interior.model.density
+            medium[1] = start
+            medium[2] = len(rows)
+            tables.kind.append(L.MEDIUM)
+            tables.rows.append(medium)
+            tables.mat.append(self.phase(shape.interior))
+            tables.lo.append(np.min([r[2] for r in rows], axis=0))
+            tables.hi.append(np.max([r[3] for r in rows], axis=0))
+        return True
+
+    # --- groups and instances ------------------------------------------------------------------
+
+    def place(self, group: GroupNode, world_from_group) -> None:
+        """Record the instances that put `group` into the world, flattening nested instances."""
+        key = id(group)
+        if key not in self.blas_of_group:
+            tables = _Tables()
+            self.blas_of_group[key] = len(self.blas)
+            self.blas.append(tables)
+            self.fill(group, tables)
+        blas = self.blas_of_group[key]
+        if self.blas[blas].kind:
+            self.instances.append((blas, world_from_group))
+        for member in group.members:
+            if isinstance(member, InstanceNode):
+                self.place(member.group, affine.compose(world_from_group, member.transform))
+            elif id(member) in self.own_instance:
+                self.instances.append((self.own_instance[id(member)], affine.compose(world_from_group, member.transform)))
+
+    own_instance: dict[int, int]
+
+    def fill(self, group: GroupNode, tables: _Tables) -> None:
+        for member in group.members:
+            if isinstance(member, InstanceNode):
+                continue
+            if not self.add_shape(tables, member, member.transform):
+                # An ellipsoid: the sphere in its own tree, placed by its transform.
+                own = _Tables()
+                self.add_shape(own, member, affine.IDENTITY)
+                self.own_instance[id(member)] = len(self.blas)
+                self.blas.append(own)
+
+    # --- the whole scene -----------------------------------------------------------------------
+
+    def run(self) -> FlatScene:
+        self.own_instance = {}
+        self.place(self.graph.root, affine.IDENTITY)
+        prim_kind, prim_rows, prim_mat = [], [], []
+        node_parts = {k: [] for k in ("lo", "hi", "a", "n", "axis")}
+        node_count = 0
+        blas_root = []
+        for tables in self.blas:
+            blas_root.append(node_count)
+            if not tables.kind:
+                continue
+            tree = build_bvh(np.array(tables.lo), np.array(tables.hi))
+            base = len(prim_kind)
+            for j in tree.order:
+                prim_kind.append(tables.kind[j])
+                prim_rows.append(tables.rows[j])
+                prim_mat.append(tables.mat[j])
+            leaf = tree.n > 0
+            a = tree.a.astype(np.int64)
+            a = np.where(leaf, a + base, a + node_count)
+            node_parts["lo"].append(tree.lo)
+            node_parts["hi"].append(tree.hi)
+            node_parts["a"].append(a.astype(np.int32))
+            node_parts["n"].append(tree.n)
+            node_parts["axis"].append(tree.axis)
+            node_count += len(tree.n)
+
+        def cat(parts, shape, dtype):
+            return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
+
+        node_lo = cat(node_parts["lo"], (0, 3), np.float64)
+        node_hi = cat(node_parts["hi"], (0, 3), np.float64)
+        # Instances: world bounds from the 8 corners of each tree's root box.
+        inst_root, inst_ident, inst_o2w, inst_w2o, ilo, ihi = [], [], [], [], [], []
+        for blas, m in self.instances:
+            root = blas_root[blas]
+            o2w = np.array(m, dtype=np.float64).reshape(12)
+            corners = np.array([[x, y, z] for x in (node_lo[root, 0], node_hi[root, 0])
+                                for y in (node_lo[root, 1], node_hi[root, 1])
+                                for z in (node_lo[root, 2], node_hi[root, 2])])
+            world = corners @ _linear(m).T + o2w.reshape(3, 4)[:, 3]
+            inst_root.append(root)
+            inst_ident.append(1 if affine.is_identity(m) else 0)
+            inst_o2w.append(o2w)
+            inst_w2o.append(_inverse_affine(o2w))
+            ilo.append(world.min(axis=0))
+            ihi.append(world.max(axis=0))
+        tlas = build_bvh(np.array(ilo).reshape(-1, 3), np.array(ihi).reshape(-1, 3))
+        order = tlas.order
+        tlas_a = tlas.a.astype(np.int32)
+
+        def pick(values, shape, dtype):
+            arr = np.array(values, dtype=dtype).reshape(shape)
+            return np.ascontiguousarray(arr[order]) if len(values) else arr
+
+        n_tex = len(self.tex_rows)
+        tex_kind = np.array([r[0] for r in self.tex_rows], np.int32).reshape(n_tex)
+        tex_color = np.array([r[1] for r in self.tex_rows], np.float64).reshape(n_tex, 3)
+        tex_param = np.array([r[2] for r in self.tex_rows], np.float64).reshape(n_tex, 4)
+        tex_child = np.array([r[3] for r in self.tex_rows], np.int32).reshape(n_tex, 2)
+        n_mat = len(self.mat_rows)
+        texels = np.concatenate(self.texel_chunks).astype(np.float32) if self.texel_chunks else np.zeros((1, 3), np.float32)
+        if self.noise:
+            noise_perm = np.stack([p for p, _ in self.noise]).astype(np.int32)
+            noise_vec = np.stack([v for _, v in self.noise]).astype(np.float64)
+        else:
+            noise_perm = np.zeros((1, 3, 256), np.int32)
+            noise_vec = np.zeros((1, 256, 3), np.float64)
+        node_a = cat(node_parts["a"], (0,), np.int32)
+        node_n = cat(node_parts["n"], (0,), np.int32)
+        node_axis = cat(node_parts["axis"], (0,), np.int32)
+        inst_o2w_arr = pick(inst_o2w, (-1, 12), np.float64)
+        inst_w2o_arr = pick(inst_w2o, (-1, 12), np.float64)
+        return FlatScene(
+            prims_i=np.stack([np.array(prim_kind, np.int32), np.array(prim_mat, np.int32)], axis=1).reshape(-1, 2),
+            prims_f=np.array(prim_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
+            bnd_i=np.array(self.bnd_kind, np.int32),
+            bnd_f=np.array(self.bnd_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
+            nodes_f=np.ascontiguousarray(np.concatenate([node_lo, node_hi], axis=1)),
+            nodes_i=np.ascontiguousarray(np.stack([node_a, node_n, node_axis], axis=1).reshape(-1, 3)),
+            inst_i=np.ascontiguousarray(
+                np.stack([pick(inst_root, (-1,), np.int32), pick(inst_ident, (-1,), np.int32)], axis=1).reshape(-1, 2)
+            ),
+            inst_f=np.ascontiguousarray(np.concatenate([inst_o2w_arr, inst_w2o_arr], axis=1).reshape(-1, 24)),
+            tlas_f=np.ascontiguousarray(np.concatenate([tlas.lo, tlas.hi], axis=1)),
+            tlas_i=np.ascontiguousarray(np.stack([tlas_a, tlas.n, tlas.axis], axis=1).astype(np.int32)),
+            mat_i=np.array([(r[0], r[1]) for r in self.mat_rows], np.int32).reshape(n_mat, 2),
+            mat_f=np.array([r[2] for r in self.mat_rows], np.float64).reshape(n_mat, 2),
+            tex_i=np.concatenate([tex_kind.reshape(-1, 1), tex_child], axis=1).astype(np.int32),
+            tex_f=np.ascontiguousarray(np.concatenate([tex_color, tex_param], axis=1)),
+            texels=texels,
+            noise_perm=noise_perm,
+            noise_vec=noise_vec,
+            camera=camera_array(self.graph),
+            background=background_array(self.graph),
+        )
+
+
+def camera_array(graph: SceneGraph) -> np.ndarray:
+    """The camera as the kernels read it (the second book's thin-lens camera)."""
+    cam, image = graph.camera, graph.image
+    width, height = image.width, image.pixel_height
+    center = np.asarray(cam.look_from, float)
+    focus = cam.focus
+    viewport_h = 2.0 * math.tan(math.radians(cam.vfov) / 2.0) * focus
+    viewport_w = viewport_h * (width / height)
+    w = center - np.asarray(cam.look_at, float)
+    w /= np.linalg.norm(w)
+    u = np.cross(np.asarray(cam.up, float), w)
+    u /= np.linalg.norm(u)
+    v = np.cross(w, u)
+    du = viewport_w * u / width
+    dv = -viewport_h * v / height
+    upper_left = center - focus * w - viewport_w * u / 2 + viewport_h * v / 2
+    pixel00 = upper_left + 0.5 * (du + dv)
+    radius = cam.lens_radius
+    out = np.zeros(21)
+    out[0:3], out[3:6], out[6:9], out[9:12] = center, pixel00, du, dv
+    out[12:15], out[15:18] = u * radius, v * radius
+    out[18] = radius
+    out[19], out[20] = graph.shutter.open, graph.shutter.close
+    return out
+
+
+def background_array(graph: SceneGraph) -> np.ndarray:
+    bg = graph.background
+    out = np.zeros(7)
+    if isinstance(bg, SkyBackground):
+        out[0] = L.BACKGROUND_SKY
+        out[1:4], out[4:7] = bg.bottom, bg.top
+    else:
+        out[0] = L.BACKGROUND_SOLID
+        out[1:4] = bg.color
+    return out
+
+
+def compile_scene(graph: SceneGraph) -> FlatScene:
+    """Flatten `graph` into the arrays the kernels read."""
+    return _Compiler(graph).run()

@@ -1,0 +1,15 @@
+"""Tuning constants of the renderer, in one place (never changed at run time)."""
+
+# BVH construction
+BVH_BINS = 16  # SAH bins per split
+BVH_MAX_LEAF = 4  # most primitives in a leaf
+BVH_STACK = 64  # traversal stack depth (a binned SAH tree over 10^7 primitives stays far below)
+
+# Ray origins of scattered rays are pushed off the surface by this fraction of the magnitude of
+# the coordinates involved: float64 rounding of a hit point is ~1e-16 of that magnitude, so
+# 1e-9 leaves seven orders of margin while staying far below any feature a scene can resolve.
+SPAWN_OFFSET = 1e-9
+
+# Largest image texture accepted, in pixels.
+MAX_TEXTURE_PIXELS = 16384 * 16384
+

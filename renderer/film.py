@@ -1,0 +1,95 @@
+"""The film: per-pixel sums of samples and of their squares, and the image files made from them."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass
+class Film:
+    """Running sums of a render; `samples` is how many samples every pixel holds."""
+
+    total: np.ndarray  # (h, w, 3) float64 sum of sample radiance
+    total_sq: np.ndarray  # (h, w, 3) float64 sum of squared sample radiance
+    samples: int = 0
+
+    @classmethod
+    def empty(cls, width: int, height: int) -> "Film":
+        return cls(np.zeros((height, width, 3)), np.zeros((height, width, 3)), 0)
+
+    @property
+    def width(self) -> int:
+        return self.total.shape[1]
+
+    @property
+    def height(self) -> int:
+        return self.total.shape[0]
+
+    def mean(self) -> np.ndarray:
+        """The image: linear radiance per pixel (h, w, 3)."""
+        return self.total / max(self.samples, 1)
+
+
+def to_srgb8(linear: np.ndarray) -> np.ndarray:
+    """8-bit pixels as the books write them: gamma 2 (square root), clamped to [0, 0.999], x256."""
+    gamma = np.sqrt(np.clip(linear, 0.0, None))
+    return (256.0 * np.clip(gamma, 0.0, 0.999)).astype(np.uint8)
+
+
+def _atomic_write(path: Path, write) -> None:
+    """Write through a temporary file in the same folder, then rename: never a truncated file."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def write_png(path: Path, linear: np.ndarray) -> None:
+    from PIL import Image
+
+    image = Image.fromarray(to_srgb8(linear), "RGB")
+    _atomic_write(path, lambda fh: image.save(fh, format="PNG"))
+
+
+def write_pfm(path: Path, linear: np.ndarray) -> None:
+    """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR tools)."""
+    h, w = linear.shape[:2]
+    header = f"PF\n{w} {h}\n-1.0\n".encode("ascii")
+    data = np.ascontiguousarray(linear[::-1].astype("<f4"))
+    _atomic_write(path, lambda fh: (fh.write(header), fh.write(data.tobytes())))
+
+
+def read_pfm(path: Path) -> np.ndarray:
+    """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom)."""
+    raw = Path(path).read_bytes()
+    parts = raw.split(b"\n", 3)
+    if parts[0] != b"PF":
+        raise ValueError(f"{path}: not a colour PFM file")
+    w, h = (int(x) for x in parts[1].split())
+    scale = float(parts[2])
+    dtype = "<f4" if scale < 0 else ">f4"
+    return np.frombuffer(parts[3], dtype=dtype, count=w * h * 3).reshape(h, w, 3)[::-1].astype(np.float64)
+
+
+def write_image(path: Path, linear: np.ndarray) -> None:
+    """PNG or PFM by the file's suffix."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".pfm":
+        write_pfm(path, linear)
+    elif suffix == ".png":
+        write_png(path, linear)
+    else:
+        raise ValueError(f"unsupported image format {suffix!r}: use .png or .pfm")

@@ -1,0 +1,37 @@
+"""The flat scene: every table the kernels read, as one NamedTuple of numpy arrays.
+
+Tables are few and wide on purpose: Numba passes each array to a function as a struct of
+several words, so the hot functions take a handful of arrays rather than the whole tuple.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class FlatScene(NamedTuple):
+    # Primitives of every bottom-level tree, each tree's rows contiguous and in leaf order.
+    prims_i: np.ndarray  # (P, 2) int32: kind, material (a medium's phase function for MEDIUM)
+    prims_f: np.ndarray  # (P, 16) float64, see layout.py
+    # Boundary rows of media (not in any tree), same row layout as primitives.
+    bnd_i: np.ndarray  # (B,) int32 kind
+    bnd_f: np.ndarray  # (B, 16) float64
+    # Nodes of every bottom-level tree; child and leaf offsets are absolute.
+    nodes_f: np.ndarray  # (N, 6) float64: box lo, hi
+    nodes_i: np.ndarray  # (N, 3) int32: second child or first primitive, primitive count (0: interior), axis
+    # Instances (the top level) and the tree over them (its leaves index instances directly).
+    inst_i: np.ndarray  # (I, 2) int32: root node of the instance's tree, 1 if untransformed
+    inst_f: np.ndarray  # (I, 24) float64: world_from_object then object_from_world, 3x4 row-major
+    tlas_f: np.ndarray  # (K, 6)
+    tlas_i: np.ndarray  # (K, 3)
+    # Materials and textures.
+    mat_i: np.ndarray  # (M, 2) int32: kind, texture of albedo or emission
+    mat_f: np.ndarray  # (M, 2) float64: metal fuzz, dielectric ior
+    tex_i: np.ndarray  # (T, 3) int32: kind, child textures (checker even, odd)
+    tex_f: np.ndarray  # (T, 7) float64: colour, four parameters
+    texels: np.ndarray  # (K, 3) float32 linear RGB of every image, row 0 at the top
+    noise_perm: np.ndarray  # (Q, 3, 256) int32
+    noise_vec: np.ndarray  # (Q, 256, 3) float64
+    # Camera, background and shutter.
+    camera: np.ndarray  # (21,) float64: origin, pixel00, du, dv, disk_u, disk_v, lens radius, open, close
+    background: np.ndarray  # (7,) float64: kind, colour or bottom, top

@@ -1,0 +1,1 @@
+"""Numba kernels. They see only numpy arrays and scalars, never pydantic models."""

@@ -1,0 +1,132 @@
+"""Ray-primitive intersection (distance only) and the surface record of the closest hit."""
+
+import math
+
+from numba import njit
+
+from ..layout import DISK, MOVING_SPHERE, QUAD, SPHERE, TRIANGLE
+from .vec import dot, madd, max_abs, row3, scale, sub
+
+INF = math.inf
+# A ray this close to parallel with a plane misses it: the hit would be numerically meaningless.
+PARALLEL_EPS = 1e-12
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def sphere_center(kind, data, i, time):
+    c = row3(data, i, 0)
+    if kind == MOVING_SPHERE:
+        c = madd(c, row3(data, i, 4), time)
+    return c
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def hit_sphere(c, r, o, d, tmin, tmax):
+    """Nearest root in (tmin, tmax) of |o + t d - c| = r, or inf.
+
+    The discriminant is formed from the distance between the centre and the ray's line (the
+    perpendicular part of o - c) rather than as b^2 - ac, which loses every digit when the
+    sphere is large or far away (Haines et al., Ray Tracing Gems, ch. 7).
+    """
+    f = sub(o, c)
+    a = dot(d, d)
+    b = dot(f, d)
+    # Perpendicular offset of the line from the centre, computed without cancellation.
+    s = b / a
+    lx, ly, lz = f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]
+    perp2 = lx * lx + ly * ly + lz * lz
+    disc = a * (r * r - perp2)
+    if disc < 0.0:
+        return INF
+    cc = dot(f, f) - r * r
+    # q has the sign of -b so the two roots below never subtract nearly equal numbers.
+    q = -b - math.copysign(math.sqrt(disc), b) if b != 0.0 else math.sqrt(disc)
+    if q == 0.0:
+        return INF
+    t0 = cc / q
+    t1 = q / a
+    if t0 > t1:
+        t0, t1 = t1, t0
+    if tmin < t0 < tmax:
+        return t0
+    if tmin < t1 < tmax:
+        return t1
+    return INF
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def hit_planar(kind, data, i, o, d, tmin, tmax):
+    nx, ny, nz = data[i, 3], data[i, 4], data[i, 5]
+    denom = nx * d[0] + ny * d[1] + nz * d[2]
+    if abs(denom) <= PARALLEL_EPS * max_abs(d):
+        return INF
+    t = (data[i, 6] - (nx * o[0] + ny * o[1] + nz * o[2])) / denom
+    if not (tmin < t < tmax):
+        return INF
+    rx = o[0] + t * d[0] - data[i, 0]
+    ry = o[1] + t * d[1] - data[i, 1]
+    rz = o[2] + t * d[2] - data[i, 2]
+    alpha = rx * data[i, 7] + ry * data[i, 8] + rz * data[i, 9]
+    if kind == QUAD:
+        if alpha < 0.0 or alpha > 1.0:
+            return INF
+        beta = rx * data[i, 10] + ry * data[i, 11] + rz * data[i, 12]
+        if beta < 0.0 or beta > 1.0:
+            return INF
+    elif kind == TRIANGLE:
+        if alpha < 0.0:
+            return INF
+        beta = rx * data[i, 10] + ry * data[i, 11] + rz * data[i, 12]
+        if beta < 0.0 or alpha + beta > 1.0:
+            return INF
+    else:  # DISK
+        beta = rx * data[i, 10] + ry * data[i, 11] + rz * data[i, 12]
+        if alpha * alpha + beta * beta > 1.0:
+            return INF
+    return t
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def hit_primitive(kind, data, i, o, d, tmin, tmax, time):
+    """Distance to primitive i of a surface kind along the ray, or inf."""
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        return hit_sphere(sphere_center(kind, data, i, time), data[i, 3], o, d, tmin, tmax)
+    return hit_planar(kind, data, i, o, d, tmin, tmax)
+
+
+@njit(cache=True, error_model="numpy")
+def sphere_uv(n_obj):
+    """(u, v) of a unit outward normal: u around +y starting at -x, v from the bottom pole."""
+    y = min(1.0, max(-1.0, -n_obj[1]))
+    theta = math.acos(y)
+    phi = math.atan2(-n_obj[2], n_obj[0]) + math.pi
+    return phi / (2.0 * math.pi), theta / math.pi
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def surface(kind, data, i, o, d, t, time):
+    """Hit point, unit outward normal and (u, v) of a hit at distance t."""
+    p = madd(o, d, t)
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        c = sphere_center(kind, data, i, time)
+        r = data[i, 3]
+        rel = sub(p, c)
+        dist = math.sqrt(dot(rel, rel))
+        n = scale(rel, 1.0 / dist) if dist > 0.0 else (0.0, 1.0, 0.0)
+        # Re-project the point onto the sphere: removes the error of o + t d.
+        p = madd(c, n, r)
+        k = 4 if kind == SPHERE else 7
+        n_obj = (
+            data[i, k] * n[0] + data[i, k + 1] * n[1] + data[i, k + 2] * n[2],
+            data[i, k + 3] * n[0] + data[i, k + 4] * n[1] + data[i, k + 5] * n[2],
+            data[i, k + 6] * n[0] + data[i, k + 7] * n[1] + data[i, k + 8] * n[2],
+        )
+        u, v = sphere_uv(n_obj)
+        return p, n, u, v
+    n = row3(data, i, 3)
+    rel = sub(p, row3(data, i, 0))
+    alpha = dot(rel, row3(data, i, 7))
+    beta = dot(rel, row3(data, i, 10))
+    if kind == DISK:
+        return p, n, 0.5 * alpha + 0.5, 0.5 * beta + 0.5
+    return p, n, alpha, beta

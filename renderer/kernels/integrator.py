@@ -1,0 +1,143 @@
+"""The path tracer: one path per (pixel, sample), and the parallel pass over the image."""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ..config import BVH_STACK, SPAWN_OFFSET
+from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
+from .geometry import surface
+from .materials import is_zero, scatter
+from .rng import DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
+from .textures import texture_value
+from .traverse import intersect_scene
+from .vec import dot, madd, max_abs, neg, unit, xform_normal, xform_point, xform_vector
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def background(bg, d):
+    if bg[0] == BACKGROUND_SKY:
+        a = 0.5 * (unit(d)[1] + 1.0)
+        return ((1.0 - a) * bg[1] + a * bg[4], (1.0 - a) * bg[2] + a * bg[5], (1.0 - a) * bg[3] + a * bg[6])
+    return (bg[1], bg[2], bg[3])
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def camera_ray(cam, i, j, key):
+    """Origin, direction and time of the camera ray through pixel (i, j) for the path with `key`."""
+    ox = uniform(key, DIM_PIXEL_X) - 0.5
+    oy = uniform(key, DIM_PIXEL_Y) - 0.5
+    target = (
+        cam[3] + (i + ox) * cam[6] + (j + oy) * cam[9],
+        cam[4] + (i + ox) * cam[7] + (j + oy) * cam[10],
+        cam[5] + (i + ox) * cam[8] + (j + oy) * cam[11],
+    )
+    origin = (cam[0], cam[1], cam[2])
+    if cam[18] > 0.0:
+        # A uniform point on the lens disk (polar form: r = sqrt(U) keeps the density uniform).
+        r = math.sqrt(uniform(key, DIM_LENS_X))
+        phi = 2.0 * math.pi * uniform(key, DIM_LENS_Y)
+        lx, ly = r * math.cos(phi), r * math.sin(phi)
+        origin = (
+            cam[0] + lx * cam[12] + ly * cam[15],
+            cam[1] + lx * cam[13] + ly * cam[16],
+            cam[2] + lx * cam[14] + ly * cam[17],
+        )
+    time = cam[19] + uniform(key, DIM_TIME) * (cam[20] - cam[19])
+    return origin, (target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]), time
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def trace(S, key, o, d, time, max_depth, stack, tstack):
+    """Radiance along one camera path, and the number of rays it cast."""
+    r, g, b = 0.0, 0.0, 0.0
+    tr, tg, tb = 1.0, 1.0, 1.0
+    rays = 0
+    for bounce in range(max_depth):
+        rays += 1
+        t, prim, inst = intersect_scene(
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
+        )
+        if prim < 0:
+            bg = background(S.background, d)
+            r += tr * bg[0]
+            g += tg * bg[1]
+            b += tb * bg[2]
+            break
+        prim_kind = S.prims_i[prim, 0]
+        mat = S.prims_i[prim, 1]
+        kind = S.mat_i[mat, 0]
+        if prim_kind == MEDIUM:
+            # A scattering event inside a medium: no surface, no normal, no (u, v).
+            p = madd(o, d, t)
+            n = (1.0, 0.0, 0.0)
+            u = v = 0.0
+            front = True
+            n_front = n
+        else:
+            if S.inst_i[inst, 1] == 1:
+                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time)
+            else:
+                oo = xform_point(S.inst_f, inst, 12, o)
+                dd = xform_vector(S.inst_f, inst, 12, d)
+                po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time)
+                p = xform_point(S.inst_f, inst, 0, po)
+                n = unit(xform_normal(S.inst_f, inst, 12, no))
+            front = dot(d, n) < 0.0
+            n_front = n if front else neg(n)
+        tex = S.mat_i[mat, 1]
+        if kind == DIFFUSE_LIGHT:
+            e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
+            r += tr * e[0]
+            g += tg * e[1]
+            b += tb * e[2]
+            break
+        new_d = scatter(kind, S.mat_f[mat, 0], S.mat_f[mat, 1], d, n_front, front, key, bounce_dim(bounce, 0))
+        if is_zero(new_d):
+            break
+        att = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
+        tr *= att[0]
+        tg *= att[1]
+        tb *= att[2]
+        if tr == 0.0 and tg == 0.0 and tb == 0.0:
+            break
+        if prim_kind == MEDIUM:
+            o = p
+        else:
+            # Leave the surface on the side the new ray goes to, by a margin scaled to the
+            # magnitude of the coordinates (their rounding error), so it cannot re-hit itself.
+            eps = SPAWN_OFFSET * (max_abs(p) + max_abs(o))
+            side = eps if dot(new_d, n_front) > 0.0 else -eps
+            o = madd(p, n_front, side)
+        d = new_d
+    return r, g, b, rays
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, total, total_sq, row_rays, row_bad):
+    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums."""
+    for j in prange(height):
+        stack = np.empty(BVH_STACK, np.int32)
+        tstack = np.empty(BVH_STACK, np.int32)
+        rays = 0
+        bad = 0
+        for i in range(width):
+            pixel = j * width + i
+            for s in range(sample_start, sample_start + sample_count):
+                key = path_key(seed, pixel, s)
+                o, d, time = camera_ray(S.camera, i, j, key)
+                r, g, b, n = trace(S, key, o, d, time, max_depth, stack, tstack)
+                rays += n
+                if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+                    bad += 1  # counted and reported, never added to the image
+                    continue
+                total[j, i, 0] += r
+                total[j, i, 1] += g
+                total[j, i, 2] += b
+                total_sq[j, i, 0] += r * r
+                total_sq[j, i, 1] += g * g
+                total_sq[j, i, 2] += b * b
+        row_rays[j] += rays
+        row_bad[j] += bad

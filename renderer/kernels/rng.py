@@ -1,0 +1,52 @@
+"""Counter-based random numbers keyed by (seed, pixel, sample, dimension).
+
+Every random number of a path is a pure function of where it is used, so an image does not
+depend on thread scheduling or traversal order, and a render can be continued with more
+samples exactly. The mixer is SplitMix64's finaliser (Steele, Lea and Flood 2014).
+"""
+
+import numpy as np
+from numba import njit, uint64
+
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_INV53 = 1.0 / 9007199254740992.0  # 2^-53
+
+# Dimensions: the camera uses 0..7; bounce b uses DIM_BOUNCE + b * DIMS_PER_BOUNCE + 0..7.
+DIM_PIXEL_X = 0
+DIM_PIXEL_Y = 1
+DIM_LENS_X = 2
+DIM_LENS_Y = 3
+DIM_TIME = 4
+DIM_BOUNCE = 8
+DIMS_PER_BOUNCE = 8
+# Media draw their free-flight distance from a stream of their own, keyed by medium and bounce,
+# so the value does not depend on the order the BVH visits them in.
+DIM_MEDIUM = np.uint64(1) << np.uint64(62)
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def mix64(z):
+    z = (z ^ (z >> uint64(30))) * _M1
+    z = (z ^ (z >> uint64(27))) * _M2
+    return z ^ (z >> uint64(31))
+
+
+@njit(cache=True, error_model="numpy")
+def path_key(seed, pixel, sample):
+    """The key of one path: a hash of the seed, the pixel index and the sample index."""
+    k = mix64(uint64(seed) + _GOLDEN)
+    k = mix64(k ^ (uint64(pixel) + _GOLDEN * uint64(2)))
+    return mix64(k ^ (uint64(sample) + _GOLDEN * uint64(3)))
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def uniform(key, dim):
+    """A number in [0, 1) for dimension `dim` of the path with `key`."""
+    return float(mix64(uint64(key) + uint64(dim) * _GOLDEN) >> uint64(11)) * _INV53
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def bounce_dim(bounce, k):
+    return DIM_BOUNCE + bounce * DIMS_PER_BOUNCE + k

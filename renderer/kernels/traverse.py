@@ -1,0 +1,241 @@
+"""Closest-hit search: a top-level tree over instances, each a bottom-level tree of primitives.
+
+Both levels use the same flattened layout and an explicit stack, visiting the nearer child
+first. A constant medium is a primitive whose hit distance is drawn from its free-flight
+distribution, with a random number keyed by (bounce, instance, primitive) so the answer does
+not depend on the order nodes are visited in.
+"""
+
+import math
+
+from numba import njit, uint64
+
+from ..layout import MEDIUM, MOVING_SPHERE, SPHERE
+from .geometry import hit_planar, hit_primitive, sphere_center
+from .rng import DIM_MEDIUM, mix64, uniform
+from .vec import dot, length, sub, xform_point, xform_vector
+
+INF = math.inf
+# Stands in for 1/0 in slab tests: large enough to act as infinity, finite so 0 * it is 0, not NaN.
+BIG = 1e300
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def inverse_direction(d):
+    return (
+        1.0 / d[0] if d[0] != 0.0 else math.copysign(BIG, d[0]),
+        1.0 / d[1] if d[1] != 0.0 else math.copysign(BIG, d[1]),
+        1.0 / d[2] if d[2] != 0.0 else math.copysign(BIG, d[2]),
+    )
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def slab(box, k, o, inv, tmin, tmax):
+    """Entry distance of the ray into box k (lo 0:3, hi 3:6) if it meets [tmin, tmax], else inf."""
+    t0 = (box[k, 0] - o[0]) * inv[0]
+    t1 = (box[k, 3] - o[0]) * inv[0]
+    near, far = min(t0, t1), max(t0, t1)
+    t0 = (box[k, 1] - o[1]) * inv[1]
+    t1 = (box[k, 4] - o[1]) * inv[1]
+    near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
+    t0 = (box[k, 2] - o[2]) * inv[2]
+    t1 = (box[k, 5] - o[2]) * inv[2]
+    near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
+    # Widen the far end by a few ulps so rounding never drops a box the ray grazes (pbrt's gamma).
+    far *= 1.0 + 4e-16
+    if near <= far and far >= tmin and near <= tmax:
+        return max(near, tmin)
+    return INF
+
+
+@njit(cache=True, error_model="numpy")
+def medium_span(bnd_i, bnd_f, start, count, o, d, time):
+    """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
+    enter, leave = INF, -INF
+    for b in range(start, start + count):
+        kind = bnd_i[b]
+        if kind == SPHERE or kind == MOVING_SPHERE:
+            c = sphere_center(kind, bnd_f, b, time)
+            r = bnd_f[b, 3]
+            f = sub(o, c)
+            a = dot(d, d)
+            half_b = dot(f, d)
+            s = half_b / a
+            lx, ly, lz = f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]
+            disc = a * (r * r - (lx * lx + ly * ly + lz * lz))
+            if disc <= 0.0:
+                continue
+            root = math.sqrt(disc)
+            q = -half_b - math.copysign(root, half_b)
+            t0, t1 = q / a, (dot(f, f) - r * r) / q if q != 0.0 else q / a
+            enter = min(enter, min(t0, t1))
+            leave = max(leave, max(t0, t1))
+        else:
+            t = hit_planar(kind, bnd_f, b, o, d, -INF, INF)
+            if t < INF:
+                enter = min(enter, t)
+                leave = max(leave, t)
+    return enter, leave
+
+
+@njit(cache=True, error_model="numpy")
+def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
+    """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
+    start, count = int(prims_f[prim, 1]), int(prims_f[prim, 2])
+    enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
+    t0, t1 = max(enter, tmin), min(leave, tmax)
+    if not t0 < t1:
+        return INF
+    t0 = max(t0, 0.0)
+    speed = length(d)
+    inside = (t1 - t0) * speed
+    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + uint64(prim))
+    u = uniform(key, dim)
+    # -ln(1 - u) / density with u in [0, 1): finite, never log(0).
+    distance = prims_f[prim, 0] * math.log1p(-u)
+    if distance > inside:
+        return INF
+    return t0 + distance / speed
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
+    """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none."""
+    inv = inverse_direction(d)
+    best_t, best_prim = tmax, -1
+    sp = 0
+    node = root
+    while True:
+        count = nodes_i[node, 1]
+        if count > 0:
+            first = nodes_i[node, 0]
+            for prim in range(first, first + count):
+                kind = prims_i[prim, 0]
+                if kind == MEDIUM:
+                    t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
+                else:
+                    t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
+                if t < best_t:
+                    best_t, best_prim = t, prim
+        else:
+            near, far = node + 1, nodes_i[node, 0]
+            if d[nodes_i[node, 2]] < 0.0:
+                near, far = far, near
+            t_near = slab(nodes_f, near, o, inv, tmin, best_t)
+            t_far = slab(nodes_f, far, o, inv, tmin, best_t)
+            if t_near < INF:
+                if t_far < INF:
+                    stack[sp] = far
+                    sp += 1
+                node = near
+                continue
+            if t_far < INF:
+                node = far
+                continue
+        # Pop the next node whose box the ray still reaches before the best hit.
+        found = False
+        while sp > 0:
+            sp -= 1
+            node = stack[sp]
+            if slab(nodes_f, node, o, inv, tmin, best_t) < INF:
+                found = True
+                break
+        if not found:
+            break
+    return best_t, best_prim
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+                    o, d, tmin, tmax, time, key, bounce, stack, tstack):
+    """Closest hit in the scene: (t, prim, instance); prim -1 if the ray escapes."""
+    best_t, best_prim, best_inst = tmax, -1, -1
+    n_inst = inst_i.shape[0]
+    if n_inst == 0:
+        return best_t, best_prim, best_inst
+    if n_inst == 1 and inst_i[0, 1] == 1:
+        # The common case: no instancing at all, one tree in world space.
+        t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, 0],
+                                 o, d, tmin, tmax, time, key, bounce, 0, stack)
+        return t, prim, 0 if prim >= 0 else -1
+    inv = inverse_direction(d)
+    if slab(tlas_f, 0, o, inv, tmin, best_t) == INF:
+        return best_t, best_prim, best_inst
+    sp = 0
+    node = 0
+    while True:
+        count = tlas_i[node, 1]
+        if count > 0:
+            first = tlas_i[node, 0]
+            for inst in range(first, first + count):
+                if inst_i[inst, 1] == 1:
+                    oo, dd = o, d
+                else:
+                    oo = xform_point(inst_f, inst, 12, o)
+                    dd = xform_vector(inst_f, inst, 12, d)
+                t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[inst, 0],
+                                         oo, dd, tmin, best_t, time, key, bounce, inst, stack)
+                if prim >= 0 and t < best_t:
+                    best_t, best_prim, best_inst = t, prim, inst
+        else:
+            near, far = node + 1, tlas_i[node, 0]
+            if d[tlas_i[node, 2]] < 0.0:
+                near, far = far, near
+            t_near = slab(tlas_f, near, o, inv, tmin, best_t)
+            t_far = slab(tlas_f, far, o, inv, tmin, best_t)
+            if t_near < INF:
+                if t_far < INF:
+                    tstack[sp] = far
+                    sp += 1
+                node = near
+                continue
+            if t_far < INF:
+                node = far
+                continue
+        found = False
+        while sp > 0:
+            sp -= 1
+            node = tstack[sp]
+            if slab(tlas_f, node, o, inv, tmin, best_t) < INF:
+                found = True
+                break
+        if not found:
+            break
+    return best_t, best_prim, best_inst
+
+
+@njit(cache=True, error_model="numpy")
+def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
+    """The same answer as `intersect_scene` by testing every primitive of every instance (for tests)."""
+    best_t, best_prim, best_inst = tmax, -1, -1
+    for inst in range(S.inst_i.shape[0]):
+        oo = xform_point(S.inst_f, inst, 12, o)
+        dd = xform_vector(S.inst_f, inst, 12, d)
+        if S.inst_i[inst, 1] == 1:
+            oo, dd = o, d
+        lo_prim, hi_prim = tree_prim_range(S.nodes_i, S.inst_i[inst, 0])
+        for prim in range(lo_prim, hi_prim):
+            kind = S.prims_i[prim, 0]
+            if kind == MEDIUM:
+                t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, inst)
+            else:
+                t = hit_primitive(kind, S.prims_f, prim, oo, dd, tmin, best_t, time)
+            if t < best_t:
+                best_t, best_prim, best_inst = t, prim, inst
+    return best_t, best_prim, best_inst
+
+
+@njit(cache=True, error_model="numpy")
+def tree_prim_range(nodes_i, root):
+    """The rows [lo, hi) of the primitives of the tree at `root` (they are contiguous)."""
+    lo, hi = 1 << 62, -1
+    stack = [root]
+    while len(stack) > 0:
+        node = stack.pop()
+        if nodes_i[node, 1] > 0:
+            lo = min(lo, nodes_i[node, 0])
+            hi = max(hi, nodes_i[node, 0] + nodes_i[node, 1])
+        else:
+            stack.append(node + 1)
+            stack.append(nodes_i[node, 0])
+    return lo, hi

@@ -1,0 +1,126 @@
+"""Render a scene graph in progressive passes into a Film.
+
+Each pass adds a few samples to every pixel; passes are sized to take about a quarter of a
+second, so progress can be shown and a render can stop cleanly between passes. Because the
+random numbers are keyed by sample index, the passes' split never changes the image.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from scenefmt.graph import SceneGraph
+
+from .compile import compile_scene
+from .film import Film
+from .flat import FlatScene
+
+PASS_SECONDS = 0.25
+
+
+@dataclass
+class RenderStats:
+    samples: int = 0
+    target_samples: int = 0
+    seconds: float = 0.0
+    rays: int = 0
+    bad_samples: int = 0  # samples that were not finite (a bug): dropped and reported
+    interrupted: bool = False
+    compile_seconds: float = 0.0  # flattening the graph and building the BVHs
+    kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
+    first_pass_seconds: float = 0.0
+
+    @property
+    def rays_per_second(self) -> float:
+        return self.rays / self.seconds if self.seconds > 0 else 0.0
+
+
+@dataclass
+class RenderResult:
+    film: Film
+    stats: RenderStats = field(default_factory=RenderStats)
+
+
+def with_width(graph: SceneGraph, width: int) -> SceneGraph:
+    """The graph rendered at another width, keeping the image's shape."""
+    image = graph.image
+    update = {"width": width}
+    if image.height is not None:
+        update["height"] = max(1, round(image.height * width / image.width))
+    return dataclasses.replace(graph, image=image.model_copy(update=update))
+
+
+def kernels_compiled() -> bool:
+    """Whether the render kernel is already compiled (or loaded from the disk cache) in this process."""
+    from .kernels.integrator import render_pass
+
+    return bool(render_pass.signatures)
+
+
+def render(
+    graph: SceneGraph,
+    *,
+    samples: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    seed: Optional[int] = None,
+    flat: Optional[FlatScene] = None,
+    film: Optional[Film] = None,
+    progress: Optional[Callable[[RenderStats], None]] = None,
+    should_stop: Optional[Callable[[], bool]] = None,
+    pass_seconds: float = PASS_SECONDS,
+) -> RenderResult:
+    """Render `graph` (its image settings, unless overridden) until `samples` per pixel are done.
+
+    `film` continues an earlier render with the same seed; `should_stop` is polled between
+    passes and ends the render early (the film then holds every finished pass).
+    """
+    from .kernels.integrator import render_pass
+
+    image = graph.image
+    width, height = image.width, image.pixel_height
+    target = samples if samples is not None else image.samples_per_pixel
+    depth = max_depth if max_depth is not None else image.max_depth
+    seed = seed if seed is not None else image.seed
+    stats = RenderStats(target_samples=target)
+    start = time.perf_counter()
+    if flat is None:
+        flat = compile_scene(graph)
+    stats.compile_seconds = time.perf_counter() - start
+    if film is None:
+        film = Film.empty(width, height)
+    stats.samples = film.samples
+    row_rays = np.zeros(height, np.int64)
+    row_bad = np.zeros(height, np.int64)
+    # Compile (or load from the disk cache) before timing anything: a pass of zero samples.
+    t0 = time.perf_counter()
+    render_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
+    stats.kernel_seconds = time.perf_counter() - t0
+    batch = 1
+    render_start = time.perf_counter()
+    while film.samples < target:
+        if should_stop is not None and should_stop():
+            stats.interrupted = True
+            break
+        n = min(batch, target - film.samples)
+        t0 = time.perf_counter()
+        render_pass(flat, width, height, seed, film.samples, n, depth, film.total, film.total_sq, row_rays, row_bad)
+        dt = time.perf_counter() - t0
+        if stats.first_pass_seconds == 0.0:
+            stats.first_pass_seconds = dt
+        film.samples += n
+        stats.samples = film.samples
+        stats.rays = int(row_rays.sum())
+        stats.bad_samples = int(row_bad.sum())
+        stats.seconds = time.perf_counter() - render_start
+        if progress is not None:
+            progress(stats)
+        # Size the next pass to take about pass_seconds.
+        per_sample = dt / n if n else dt
+        batch = max(1, min(4 * n, int(pass_seconds / per_sample) if per_sample > 0 else 4 * n))
+    stats.seconds = time.perf_counter() - render_start
+    return RenderResult(film, stats)

@@ -171,6 +171,16 @@ def _build(lo, hi, bins, max_leaf):
     return node_lo[:count].copy(), node_hi[:count].copy(), node_a[:count].copy(), node_n[:count].copy(), node_axis[:count].copy(), idx
 
 
+def single_leaf(lo: np.ndarray, hi: np.ndarray) -> Bvh:
+    """A "tree" of one leaf holding every box: traversing it tests every primitive (brute force)."""
+    n = lo.shape[0]
+    box_lo = lo.min(axis=0, keepdims=True) if n else np.full((1, 3), np.inf)
+    box_hi = hi.max(axis=0, keepdims=True) if n else np.full((1, 3), -np.inf)
+    pad = np.maximum(PAD_RELATIVE * (np.abs(box_lo).max() + np.abs(box_hi).max()), 1e-300) if n else 0.0
+    return Bvh(box_lo - pad, box_hi + pad, np.zeros(1, np.int32), np.array([n], np.int32), np.zeros(1, np.int32),
+               np.arange(n, dtype=np.int32))
+
+
 def build_bvh(lo: np.ndarray, hi: np.ndarray) -> Bvh:
     """A BVH over boxes [lo[i], hi[i]]; an empty input gives one empty leaf."""
     lo = np.ascontiguousarray(lo, dtype=np.float64)

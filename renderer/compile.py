@@ -19,7 +19,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.scene import SkyBackground
 
 from . import layout as L
-from .bvh import build_bvh
+from .bvh import build_bvh, single_leaf
 from .flat import FlatScene
 from .textures import load_image_texels, perlin_tables
 
@@ -83,8 +83,9 @@ class _Tables:
 
 
 class _Compiler:
-    def __init__(self, graph: SceneGraph):
+    def __init__(self, graph: SceneGraph, use_bvh: bool = True):
         self.graph = graph
+        self.build_tree = build_bvh if use_bvh else single_leaf
         self.shutter_open = float(graph.shutter.open)
         self.shutter_close = float(graph.shutter.close)
         self.tex_rows: list[tuple] = []
@@ -300,7 +301,7 @@ class _Compiler:
             blas_root.append(node_count)
             if not tables.kind:
                 continue
-            tree = build_bvh(np.array(tables.lo), np.array(tables.hi))
+            tree = self.build_tree(np.array(tables.lo), np.array(tables.hi))
             base = len(prim_kind)
             for j in tree.order:
                 prim_kind.append(tables.kind[j])
@@ -336,7 +337,7 @@ class _Compiler:
             inst_w2o.append(_inverse_affine(o2w))
             ilo.append(world.min(axis=0))
             ihi.append(world.max(axis=0))
-        tlas = build_bvh(np.array(ilo).reshape(-1, 3), np.array(ihi).reshape(-1, 3))
+        tlas = self.build_tree(np.array(ilo).reshape(-1, 3), np.array(ihi).reshape(-1, 3))
         order = tlas.order
         tlas_a = tlas.a.astype(np.int32)
 
@@ -425,6 +426,7 @@ def background_array(graph: SceneGraph) -> np.ndarray:
     return out
 
 
-def compile_scene(graph: SceneGraph) -> FlatScene:
-    """Flatten `graph` into the arrays the kernels read."""
-    return _Compiler(graph).run()
+def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
+    """Flatten `graph` into the arrays the kernels read. Without `use_bvh` every tree is a single
+    leaf, so each ray tests every primitive: the brute-force reference the BVH must agree with."""
+    return _Compiler(graph, use_bvh).run()

@@ -1,0 +1,52 @@
+"""Cast a batch of rays and report what they hit: for tests and diagnostics, not for rendering."""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..config import BVH_STACK
+from ..layout import MEDIUM
+from .geometry import surface
+from .traverse import intersect_brute_force, intersect_scene
+from .vec import unit, xform_normal, xform_point, xform_vector
+
+
+@njit(cache=True, error_model="numpy")
+def probe_rays(S, origins, dirs, time, tmin, brute):
+    """For each ray: distance (inf on a miss), primitive row, instance, world point, unit outward normal and (u, v)."""
+    n = origins.shape[0]
+    t_out = np.full(n, np.inf)
+    prim_out = np.full(n, -1, np.int64)
+    inst_out = np.full(n, -1, np.int64)
+    p_out = np.zeros((n, 3))
+    n_out = np.zeros((n, 3))
+    uv_out = np.zeros((n, 2))
+    stack = np.empty(BVH_STACK, np.int32)
+    tstack = np.empty(BVH_STACK, np.int32)
+    key = np.uint64(12345)
+    for k in range(n):
+        o = (origins[k, 0], origins[k, 1], origins[k, 2])
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        if brute:
+            t, prim, inst = intersect_brute_force(S, o, d, tmin, math.inf, time, key, 0)
+        else:
+            t, prim, inst = intersect_scene(
+                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+                o, d, tmin, math.inf, time, key, 0, stack, tstack,
+            )
+        if prim < 0:
+            continue
+        t_out[k], prim_out[k], inst_out[k] = t, prim, inst
+        if S.prims_i[prim, 0] == MEDIUM:  # no surface
+            continue
+        oo = xform_point(S.inst_f, inst, 12, o)
+        dd = xform_vector(S.inst_f, inst, 12, d)
+        po, no, u, v = surface(S.prims_i[prim, 0], S.prims_f, prim, oo, dd, t, time)
+        p = xform_point(S.inst_f, inst, 0, po)
+        nw = unit(xform_normal(S.inst_f, inst, 12, no))
+        for q in range(3):
+            p_out[k, q] = p[q]
+            n_out[k, q] = nw[q]
+        uv_out[k, 0], uv_out[k, 1] = u, v
+    return t_out, prim_out, inst_out, p_out, n_out, uv_out

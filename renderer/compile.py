@@ -101,6 +101,7 @@ class _Compiler:
         self.blas: list[_Tables] = []
         self.blas_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
+        self.media_count = 0
 
     # --- textures and materials ----------------------------------------------------------------
 
@@ -249,6 +250,9 @@ class _Compiler:
             medium[0] = -1.0 / shape.interior.model.density
             medium[1] = start
             medium[2] = len(rows)
+            # A serial number independent of the BVH's row order keys the medium's random numbers.
+            medium[3] = self.media_count
+            self.media_count += 1
             tables.kind.append(L.MEDIUM)
             tables.rows.append(medium)
             tables.mat.append(self.phase(shape.interior))
@@ -371,7 +375,11 @@ class _Compiler:
             nodes_f=np.ascontiguousarray(np.concatenate([node_lo, node_hi], axis=1)),
             nodes_i=np.ascontiguousarray(np.stack([node_a, node_n, node_axis], axis=1).reshape(-1, 3)),
             inst_i=np.ascontiguousarray(
-                np.stack([pick(inst_root, (-1,), np.int32), pick(inst_ident, (-1,), np.int32)], axis=1).reshape(-1, 2)
+                np.stack(
+                    [pick(inst_root, (-1,), np.int32), pick(inst_ident, (-1,), np.int32),
+                     pick(list(range(len(inst_root))), (-1,), np.int32)],
+                    axis=1,
+                ).reshape(-1, 3)
             ),
             inst_f=np.ascontiguousarray(np.concatenate([inst_o2w_arr, inst_w2o_arr], axis=1).reshape(-1, 24)),
             tlas_f=np.ascontiguousarray(np.concatenate([tlas.lo, tlas.hi], axis=1)),

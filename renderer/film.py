@@ -66,6 +66,8 @@ def write_png(path: Path, linear: np.ndarray) -> None:
 
 def write_pfm(path: Path, linear: np.ndarray) -> None:
     """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR tools)."""
+    if linear.ndim != 3 or linear.shape[2] != 3:
+        raise ValueError(f"expected an (height, width, 3) image, found shape {linear.shape}")
     h, w = linear.shape[:2]
     header = f"PF\n{w} {h}\n-1.0\n".encode("ascii")
     data = np.ascontiguousarray(linear[::-1].astype("<f4"))

@@ -20,7 +20,7 @@ class FlatScene(NamedTuple):
     nodes_f: np.ndarray  # (N, 6) float64: box lo, hi
     nodes_i: np.ndarray  # (N, 3) int32: second child or first primitive, primitive count (0: interior), axis
     # Instances (the top level) and the tree over them (its leaves index instances directly).
-    inst_i: np.ndarray  # (I, 2) int32: root node of the instance's tree, 1 if untransformed
+    inst_i: np.ndarray  # (I, 3) int32: root node of the instance's tree, 1 if untransformed, serial number
     inst_f: np.ndarray  # (I, 24) float64: world_from_object then object_from_world, 3x4 row-major
     tlas_f: np.ndarray  # (K, 6)
     tlas_i: np.ndarray  # (K, 3)

@@ -8,7 +8,7 @@ Primitive rows hold 16 float64 values:
   A = v x w 7:10 and B = w x u 10:13 with w = n / (n . n), n = u x v, so that the plane
   coordinates of a point P are alpha = (P - Q) . A and beta = (P - Q) . B (disk: u and v are
   radius-long axes, and the disk is alpha^2 + beta^2 <= 1)
-- MEDIUM:        -1/density 0, first boundary row 1, number of boundary rows 2
+- MEDIUM:        -1/density 0, first boundary row 1, number of boundary rows 2, serial number 3
 """
 
 PRIM_WIDTH = 16

@@ -1,6 +1,8 @@
 """The `rt` command line, through typer's test runner and as a real process."""
 
 import json
+
+import numpy as np
 import subprocess
 import sys
 from pathlib import Path
@@ -103,3 +105,74 @@ def test_render_rejects_an_invalid_scene(tmp_path):
     result = runner.invoke(app, ["render", str(path)])
     assert result.exit_code == 1
     assert "shapes[0].radious" in result.stderr
+
+
+SMALL = """
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40}
+image: {width: 32, aspect_ratio: 2, samples_per_pixel: 4, max_depth: 8, seed: 5}
+materials: {m: {type: lambertian, albedo: [0.6, 0.3, 0.2]}, g: {type: dielectric, ior: 1.5}}
+media: {fog: {type: constant, density: 0.5}}
+shapes:
+  - {type: sphere, center: [0, -100, 0], radius: 100, material: m}
+  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: g, interior: fog}
+"""
+
+
+def run_rt(*args, cwd, env_extra=None, **kw):
+    import os
+
+    env = dict(os.environ, **(env_extra or {}))
+    return subprocess.run([sys.executable, "-m", "rt", *args], cwd=cwd, env=env, capture_output=True, text=True, **kw)
+
+
+def test_render_writes_the_default_output_name_and_applies_overrides(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    out = run_rt("render", "ball.yaml", "--spp", "2", "--width", "20", "--max-depth", "3", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    from PIL import Image
+
+    with Image.open(tmp_path / "ball.png") as img:
+        assert img.size == (20, 10)
+        assert np.asarray(img.convert("L")).max() > 0
+    assert "wrote ball.png: 20x10, 2 spp" in out.stdout
+    assert "Mrays/s" in out.stdout
+
+
+def test_render_is_identical_with_one_thread_or_two(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    images = []
+    for threads in ("1", "2"):
+        out = run_rt("render", "ball.yaml", "-o", f"t{threads}.png", "--hdr", f"t{threads}.pfm", "--threads", threads,
+                     cwd=tmp_path, env_extra={"NUMBA_NUM_THREADS": threads})
+        assert out.returncode == 0, out.stderr
+        images.append((tmp_path / f"t{threads}.pfm").read_bytes())
+    assert images[0] == images[1]
+
+
+def test_render_refuses_bad_output_names_before_rendering(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    result = runner.invoke(app, ["render", str(tmp_path / "ball.yaml"), "-o", str(tmp_path / "x.jpg")])
+    assert result.exit_code == 1 and "must end in .png" in result.stderr
+    result = runner.invoke(app, ["render", str(tmp_path / "ball.yaml"), "-o", str(tmp_path / "no" / "x.png")])
+    assert result.exit_code == 1 and "does not exist" in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ball.yaml"]
+
+
+def test_ctrl_c_saves_the_samples_rendered_so_far(tmp_path):
+    import signal
+    import time
+
+    write(tmp_path, "ball.yaml", SMALL.replace("samples_per_pixel: 4", "samples_per_pixel: 1000000").replace("width: 32", "width: 64"))
+    proc = subprocess.Popen([sys.executable, "-m", "rt", "render", "ball.yaml"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Wait until the progress bar shows that passes are running, then interrupt.
+    deadline = time.time() + 120
+    seen = ""
+    while time.time() < deadline and "spp" not in seen:
+        seen += proc.stderr.readline()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "interrupted: the image holds" in err
+    assert (tmp_path / "ball.png").is_file()
+    assert "wrote ball.png" in out

@@ -80,6 +80,7 @@ def medium_span(bnd_i, bnd_f, start, count, o, d, time):
 
 @njit(cache=True, error_model="numpy")
 def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
+    # `inst` is the instance's serial number.
     """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
     start, count = int(prims_f[prim, 1]), int(prims_f[prim, 2])
     enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
@@ -89,7 +90,9 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
     t0 = max(t0, 0.0)
     speed = length(d)
     inside = (t1 - t0) * speed
-    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + uint64(prim))
+    # Keyed by serial numbers, not table rows: the BVH reorders rows, and must not change the image.
+    medium = uint64(prims_f[prim, 3])
+    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
     u = uniform(key, dim)
     # -ln(1 - u) / density with u in [0, 1): finite, never log(0).
     distance = prims_f[prim, 0] * math.log1p(-u)
@@ -156,7 +159,7 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
     if n_inst == 1 and inst_i[0, 1] == 1:
         # The common case: no instancing at all, one tree in world space.
         t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, 0],
-                                 o, d, tmin, tmax, time, key, bounce, 0, stack)
+                                 o, d, tmin, tmax, time, key, bounce, inst_i[0, 2], stack)
         return t, prim, 0 if prim >= 0 else -1
     inv = inverse_direction(d)
     if slab(tlas_f, 0, o, inv, tmin, best_t) == INF:
@@ -174,7 +177,7 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
                     oo = xform_point(inst_f, inst, 12, o)
                     dd = xform_vector(inst_f, inst, 12, d)
                 t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[inst, 0],
-                                         oo, dd, tmin, best_t, time, key, bounce, inst, stack)
+                                         oo, dd, tmin, best_t, time, key, bounce, inst_i[inst, 2], stack)
                 if prim >= 0 and t < best_t:
                     best_t, best_prim, best_inst = t, prim, inst
         else:
@@ -217,7 +220,7 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
         for prim in range(lo_prim, hi_prim):
             kind = S.prims_i[prim, 0]
             if kind == MEDIUM:
-                t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, inst)
+                t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, 2])
             else:
                 t = hit_primitive(kind, S.prims_f, prim, oo, dd, tmin, best_t, time)
             if t < best_t:

@@ -6,7 +6,13 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
+
+# numpy's BLAS threads spin after a call; on a 2-core machine they would take a core from the
+# renderer's own threads. The renderer does no heavy linear algebra, so one BLAS thread suffices.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 from pathlib import Path
 from typing import List, Optional
 

@@ -13,14 +13,15 @@ _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _INV53 = 1.0 / 9007199254740992.0  # 2^-53
 
-# Dimensions: the camera uses 0..7; bounce b uses DIM_BOUNCE + b * DIMS_PER_BOUNCE + 0..7.
+# Dimensions: the camera uses 0..7; bounce b uses DIM_BOUNCE + b * DIMS_PER_BOUNCE + 0..9
+# (a scattering direction takes up to 8, a dielectric's reflect-or-refract choice 1 more).
 DIM_PIXEL_X = 0
 DIM_PIXEL_Y = 1
 DIM_LENS_X = 2
 DIM_LENS_Y = 3
 DIM_TIME = 4
 DIM_BOUNCE = 8
-DIMS_PER_BOUNCE = 8
+DIMS_PER_BOUNCE = 10
 # Media draw their free-flight distance from a stream of their own, keyed by medium and bounce,
 # so the value does not depend on the order the BVH visits them in.
 DIM_MEDIUM = np.uint64(1) << np.uint64(62)

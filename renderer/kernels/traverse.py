@@ -48,7 +48,7 @@ def slab(box, k, o, inv, tmin, tmax):
     return INF
 
 
-@njit(cache=True, error_model="numpy")
+@njit(inline="always", cache=True, error_model="numpy")
 def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
     enter, leave = INF, -INF
@@ -78,7 +78,7 @@ def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     return enter, leave
 
 
-@njit(cache=True, error_model="numpy")
+@njit(inline="always", cache=True, error_model="numpy")
 def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
     # `inst` is the instance's serial number.
     """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
@@ -105,6 +105,7 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
 def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
     """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none."""
     inv = inverse_direction(d)
+    neg0, neg1, neg2 = d[0] < 0.0, d[1] < 0.0, d[2] < 0.0
     best_t, best_prim = tmax, -1
     sp = 0
     node = root
@@ -122,7 +123,8 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                     best_t, best_prim = t, prim
         else:
             near, far = node + 1, nodes_i[node, 0]
-            if d[nodes_i[node, 2]] < 0.0:
+            axis = nodes_i[node, 2]
+            if neg0 if axis == 0 else (neg1 if axis == 1 else neg2):
                 near, far = far, near
             t_near = slab(nodes_f, near, o, inv, tmin, best_t)
             t_far = slab(nodes_f, far, o, inv, tmin, best_t)

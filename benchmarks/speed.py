@@ -1,0 +1,69 @@
+"""Whole-process render times of the speed targets, as a user runs them (`rt render`, warm cache).
+
+    python benchmarks/speed.py [--runs 3] [--threads N]
+
+Prints, per scene: the median wall time of the whole `rt render` process, the rays per second
+it reports, the peak resident memory, and the target and reference times. The first run of a
+scene may compile the kernels; it is done once beforehand and not counted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# (scene, width, spp, max depth, target seconds, the books' C++ reference seconds on one core)
+TARGETS = [
+    ("final_scene", 400, 64, 40, 6.5, 31.5),
+    ("cornell_box", 600, 64, 50, 9.5, 47.0),
+    ("bouncing_spheres", 400, 50, 50, 1.5, 4.6),
+]
+
+
+def run_once(scene: str, width: int, spp: int, depth: int, threads: int | None, out_dir: Path) -> tuple[float, float, int]:
+    """(wall seconds, Mrays/s, peak RSS in KiB) of one `rt render` process."""
+    cmd = [sys.executable, "-m", "rt", "render", str(ROOT / "scenes" / f"{scene}.yaml"), "-o", str(out_dir / f"{scene}.png"),
+           "--width", str(width), "--spp", str(spp), "--max-depth", str(depth)]
+    if threads:
+        cmd += ["--threads", str(threads)]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    start = time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    rate = float(re.search(r"([\d.]+) Mrays/s", out.stdout).group(1))
+    return wall, rate, max(peak, before)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--threads", type=int, default=None)
+    args = parser.parse_args()
+    print(f"machine: {os.cpu_count()} cores; median of {args.runs} runs; warm kernel cache")
+    print(f"{'scene':<18} {'settings':<22} {'time':>7} {'target':>7} {'C++ ref':>8} {'Mrays/s':>8} {'peak MiB':>9}")
+    with tempfile.TemporaryDirectory() as tmp:
+        out_dir = Path(tmp)
+        for scene, width, spp, depth, target, reference in TARGETS:
+            run_once(scene, 16, 1, 2, args.threads, out_dir)  # warm the kernel cache
+            runs = [run_once(scene, width, spp, depth, args.threads, out_dir) for _ in range(args.runs)]
+            wall = statistics.median(r[0] for r in runs)
+            rate = statistics.median(r[1] for r in runs)
+            peak = max(r[2] for r in runs) / 1024
+            settings = f"{width}px {spp}spp d{depth}"
+            print(f"{scene:<18} {settings:<22} {wall:>6.2f}s {target:>6.1f}s {reference:>7.1f}s {rate:>8.2f} {peak:>9.0f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

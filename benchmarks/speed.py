@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import resource
 import statistics
 import subprocess
 import sys
@@ -36,13 +35,17 @@ def run_once(scene: str, width: int, spp: int, depth: int, threads: int | None, 
            "--width", str(width), "--spp", str(spp), "--max-depth", str(depth)]
     if threads:
         cmd += ["--threads", str(threads)]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     start = time.perf_counter()
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    stdout = proc.stdout.read()
+    # wait4 gives this child's own resource usage (its peak resident memory).
+    _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    rate = float(re.search(r"([\d.]+) Mrays/s", out.stdout).group(1))
-    return wall, rate, max(peak, before)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed with exit code {proc.returncode}")
+    rate = float(re.search(r"([\d.]+) Mrays/s", stdout).group(1))
+    return wall, rate, usage.ru_maxrss
 
 
 def main() -> int:

@@ -119,8 +119,8 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, total, total_sq, row_rays, row_bad):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums."""
     for j in prange(height):
-        stack = np.empty(BVH_STACK, np.int32)
-        tstack = np.empty(BVH_STACK, np.int32)
+        stack = np.empty((BVH_STACK, 2))
+        tstack = np.empty((BVH_STACK, 2))
         rays = 0
         bad = 0
         for i in range(width):

@@ -22,8 +22,8 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
     p_out = np.zeros((n, 3))
     n_out = np.zeros((n, 3))
     uv_out = np.zeros((n, 2))
-    stack = np.empty(BVH_STACK, np.int32)
-    tstack = np.empty(BVH_STACK, np.int32)
+    stack = np.empty((BVH_STACK, 2))
+    tstack = np.empty((BVH_STACK, 2))
     key = np.uint64(12345)
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])

@@ -103,7 +103,11 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
 
 @njit(inline="always", cache=True, error_model="numpy")
 def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
-    """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none."""
+    """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
+
+    `stack` rows hold (node, entry distance): a popped node is skipped without a second box
+    test when a nearer hit has been found since it was pushed.
+    """
     inv = inverse_direction(d)
     neg0, neg1, neg2 = d[0] < 0.0, d[1] < 0.0, d[2] < 0.0
     best_t, best_prim = tmax, -1
@@ -130,19 +134,20 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
             t_far = slab(nodes_f, far, o, inv, tmin, best_t)
             if t_near < INF:
                 if t_far < INF:
-                    stack[sp] = far
+                    stack[sp, 0] = far
+                    stack[sp, 1] = t_far
                     sp += 1
                 node = near
                 continue
             if t_far < INF:
                 node = far
                 continue
-        # Pop the next node whose box the ray still reaches before the best hit.
+        # Pop the next node the ray entered before the best hit found since it was pushed.
         found = False
         while sp > 0:
             sp -= 1
-            node = stack[sp]
-            if slab(nodes_f, node, o, inv, tmin, best_t) < INF:
+            if stack[sp, 1] <= best_t:
+                node = int(stack[sp, 0])
                 found = True
                 break
         if not found:
@@ -184,13 +189,15 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
                     best_t, best_prim, best_inst = t, prim, inst
         else:
             near, far = node + 1, tlas_i[node, 0]
-            if d[tlas_i[node, 2]] < 0.0:
+            axis = tlas_i[node, 2]
+            if (d[0] < 0.0) if axis == 0 else ((d[1] < 0.0) if axis == 1 else (d[2] < 0.0)):
                 near, far = far, near
             t_near = slab(tlas_f, near, o, inv, tmin, best_t)
             t_far = slab(tlas_f, far, o, inv, tmin, best_t)
             if t_near < INF:
                 if t_far < INF:
-                    tstack[sp] = far
+                    tstack[sp, 0] = far
+                    tstack[sp, 1] = t_far
                     sp += 1
                 node = near
                 continue
@@ -200,8 +207,8 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
         found = False
         while sp > 0:
             sp -= 1
-            node = tstack[sp]
-            if slab(tlas_f, node, o, inv, tmin, best_t) < INF:
+            if tstack[sp, 1] <= best_t:
+                node = int(tstack[sp, 0])
                 found = True
                 break
         if not found:

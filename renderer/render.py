@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
@@ -55,11 +56,19 @@ def with_width(graph: SceneGraph, width: int) -> SceneGraph:
     return dataclasses.replace(graph, image=image.model_copy(update=update))
 
 
-def kernels_compiled() -> bool:
-    """Whether the render kernel is already compiled (or loaded from the disk cache) in this process."""
+def kernels_cached() -> bool:
+    """Whether the render kernel is compiled in this process or waiting in the disk cache.
+
+    False means the next render starts by compiling it (a minute or two, once per installation).
+    """
     from .kernels.integrator import render_pass
 
-    return bool(render_pass.signatures)
+    if render_pass.signatures:
+        return True
+    try:
+        return Path(render_pass._cache._cache_file._index_path).is_file()
+    except AttributeError:  # a Numba without this internal layout: assume the best
+        return True
 
 
 def render(

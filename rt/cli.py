@@ -177,8 +177,8 @@ def render(
     import numba
 
     from renderer.film import write_image
+    from renderer.render import kernels_cached, with_width
     from renderer.render import render as render_graph
-    from renderer.render import with_width
 
     if threads is not None:
         if threads > numba.config.NUMBA_NUM_THREADS:
@@ -195,6 +195,11 @@ def render(
         stop["requested"] = True
         sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
 
+    if not kernels_cached():
+        typer.echo(
+            f"compiling the renderer for this installation (about two minutes on 2 cores, once; cached in {numba.config.CACHE_DIR})",
+            err=True,
+        )
     previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = _Progress(target)
     try:

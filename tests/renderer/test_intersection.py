@@ -6,7 +6,7 @@ import random
 import numpy as np
 import pytest
 
-import naive
+from tests import naive
 from scenefmt import models as m
 from scenefmt.graph import build_graph
 from renderer.compile import compile_scene

@@ -1,12 +1,11 @@
 """The `rt` command line, through typer's test runner and as a real process."""
 
 import json
-
-import numpy as np
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 from typer.testing import CliRunner
 
 from rt.cli import app

@@ -49,6 +49,40 @@ def slab(box, k, o, inv, tmin, tmax):
 
 
 @njit(inline="always", cache=True, error_model="numpy")
+def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
+    """At interior `node`: the child to visit next (-1 if the ray meets neither) and the stack size.
+
+    The nearer child (by the ray's direction along the split axis) is visited first; the other
+    is pushed with its entry distance when the ray meets it too.
+    """
+    near, far = node + 1, info[node, 0]
+    axis = info[node, 2]
+    if neg0 if axis == 0 else (neg1 if axis == 1 else neg2):
+        near, far = far, near
+    t_near = slab(box, near, o, inv, tmin, best_t)
+    t_far = slab(box, far, o, inv, tmin, best_t)
+    if t_near < INF:
+        if t_far < INF:
+            stack[sp, 0] = far
+            stack[sp, 1] = t_far
+            sp += 1
+        return near, sp
+    if t_far < INF:
+        return far, sp
+    return -1, sp
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def pop(stack, sp, best_t):
+    """The next pushed node the ray entered before the best hit so far (-1 if none), and the stack size."""
+    while sp > 0:
+        sp -= 1
+        if stack[sp, 1] <= best_t:
+            return int(stack[sp, 0]), sp
+    return -1, sp
+
+
+@njit(inline="always", cache=True, error_model="numpy")
 def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
     enter, leave = INF, -INF
@@ -126,31 +160,12 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                 if t < best_t:
                     best_t, best_prim = t, prim
         else:
-            near, far = node + 1, nodes_i[node, 0]
-            axis = nodes_i[node, 2]
-            if neg0 if axis == 0 else (neg1 if axis == 1 else neg2):
-                near, far = far, near
-            t_near = slab(nodes_f, near, o, inv, tmin, best_t)
-            t_far = slab(nodes_f, far, o, inv, tmin, best_t)
-            if t_near < INF:
-                if t_far < INF:
-                    stack[sp, 0] = far
-                    stack[sp, 1] = t_far
-                    sp += 1
-                node = near
+            child, sp = descend(nodes_f, nodes_i, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp)
+            if child >= 0:
+                node = child
                 continue
-            if t_far < INF:
-                node = far
-                continue
-        # Pop the next node the ray entered before the best hit found since it was pushed.
-        found = False
-        while sp > 0:
-            sp -= 1
-            if stack[sp, 1] <= best_t:
-                node = int(stack[sp, 0])
-                found = True
-                break
-        if not found:
+        node, sp = pop(stack, sp, best_t)
+        if node < 0:
             break
     return best_t, best_prim
 
@@ -188,30 +203,12 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
                 if prim >= 0 and t < best_t:
                     best_t, best_prim, best_inst = t, prim, inst
         else:
-            near, far = node + 1, tlas_i[node, 0]
-            axis = tlas_i[node, 2]
-            if (d[0] < 0.0) if axis == 0 else ((d[1] < 0.0) if axis == 1 else (d[2] < 0.0)):
-                near, far = far, near
-            t_near = slab(tlas_f, near, o, inv, tmin, best_t)
-            t_far = slab(tlas_f, far, o, inv, tmin, best_t)
-            if t_near < INF:
-                if t_far < INF:
-                    tstack[sp, 0] = far
-                    tstack[sp, 1] = t_far
-                    sp += 1
-                node = near
+            child, sp = descend(tlas_f, tlas_i, node, o, inv, d[0] < 0.0, d[1] < 0.0, d[2] < 0.0, tmin, best_t, tstack, sp)
+            if child >= 0:
+                node = child
                 continue
-            if t_far < INF:
-                node = far
-                continue
-        found = False
-        while sp > 0:
-            sp -= 1
-            if tstack[sp, 1] <= best_t:
-                node = int(tstack[sp, 0])
-                found = True
-                break
-        if not found:
+        node, sp = pop(tstack, sp, best_t)
+        if node < 0:
             break
     return best_t, best_prim, best_inst
 

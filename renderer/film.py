@@ -95,3 +95,46 @@ def write_image(path: Path, linear: np.ndarray) -> None:
         write_png(path, linear)
     else:
         raise ValueError(f"unsupported image format {suffix!r}: use .png or .pfm")
+
+
+@dataclass
+class NoiseEstimate:
+    """How far the image is likely to be from the converged one, from the samples' own spread.
+
+    `relative_rms` is sqrt(sum of squared standard errors) / sqrt(sum of squared pixel values)
+    over all pixels and channels: the expected RMS error relative to the image's RMS value.
+    """
+
+    relative_rms: float
+    worst_pixel: tuple[int, int]  # (x, y) of the pixel with the largest standard error
+    worst_relative: float  # that pixel's standard error relative to its own value
+    error: np.ndarray  # (h, w) standard error of each pixel's mean, averaged over channels
+
+
+def estimate_noise(film: Film) -> NoiseEstimate:
+    """The standard error of each pixel's mean from the sums of samples and of their squares."""
+    n = film.samples
+    h, w = film.height, film.width
+    if n < 2:
+        return NoiseEstimate(float("inf"), (0, 0), float("inf"), np.full((h, w), np.inf))
+    mean = film.total / n
+    # Unbiased sample variance, then the variance of the mean of n samples.
+    var = np.maximum(film.total_sq - film.total * mean, 0.0) / (n - 1)
+    se2 = var / n
+    signal = float(np.sum(mean * mean))
+    relative = float(np.sqrt(se2.sum() / signal)) if signal > 0 else (0.0 if se2.sum() == 0 else float("inf"))
+    error = np.sqrt(se2).mean(axis=2)
+    y, x = np.unravel_index(int(np.argmax(error)), error.shape)
+    value = float(mean[y, x].mean())
+    worst_relative = float(error[y, x] / value) if value > 0 else (0.0 if error[y, x] == 0 else float("inf"))
+    return NoiseEstimate(relative, (int(x), int(y)), worst_relative, error)
+
+
+def noise_map_image(estimate: NoiseEstimate) -> np.ndarray:
+    """A greyscale picture of the per-pixel error, linear in the error: black is none, white is the
+    99th percentile and above (a few fireflies would otherwise leave everything else black)."""
+    err = np.where(np.isfinite(estimate.error), estimate.error, 0.0)
+    top = float(np.percentile(err, 99)) if err.size else 0.0
+    grey = np.clip(err / top, 0.0, 1.0) if top > 0 else np.zeros_like(err)
+    # Square so that the books' gamma-2 PNG output shows error linearly.
+    return np.repeat((grey * grey)[:, :, None], 3, axis=2)

@@ -18,10 +18,11 @@ import numpy as np
 from scenefmt.graph import SceneGraph
 
 from .compile import compile_scene
-from .film import Film
+from .film import Film, estimate_noise
 from .flat import FlatScene
 
 PASS_SECONDS = 0.25
+MIN_SAMPLES_FOR_NOISE = 8
 
 
 @dataclass
@@ -32,6 +33,8 @@ class RenderStats:
     rays: int = 0
     bad_samples: int = 0  # samples that were not finite (a bug): dropped and reported
     interrupted: bool = False
+    stop_reason: str = "samples"  # samples | time | noise | interrupted
+    noise: float = float("inf")  # relative RMS noise estimate at the end (see film.estimate_noise)
     compile_seconds: float = 0.0  # flattening the graph and building the BVHs
     kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
     first_pass_seconds: float = 0.0
@@ -82,11 +85,16 @@ def render(
     progress: Optional[Callable[[RenderStats], None]] = None,
     should_stop: Optional[Callable[[], bool]] = None,
     pass_seconds: float = PASS_SECONDS,
+    time_budget: Optional[float] = None,
+    noise_target: Optional[float] = None,
 ) -> RenderResult:
     """Render `graph` (its image settings, unless overridden) until `samples` per pixel are done.
 
     `film` continues an earlier render with the same seed; `should_stop` is polled between
-    passes and ends the render early (the film then holds every finished pass).
+    passes and ends the render early (the film then holds every finished pass). With
+    `time_budget` (seconds of rendering) or `noise_target` (relative RMS noise, see
+    `film.estimate_noise`) the render also stops when the time is spent or the estimated noise
+    falls below the target; `samples` is then the cap.
     """
     from .kernels.integrator import render_pass
 
@@ -110,12 +118,23 @@ def render(
     render_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
     stats.kernel_seconds = time.perf_counter() - t0
     batch = 1
+    stats_start_samples = film.samples
     render_start = time.perf_counter()
+    last_noise = render_start
     while film.samples < target:
         if should_stop is not None and should_stop():
             stats.interrupted = True
+            stats.stop_reason = "interrupted"
+            break
+        elapsed = time.perf_counter() - render_start
+        if time_budget is not None and elapsed >= time_budget:
+            stats.stop_reason = "time"
             break
         n = min(batch, target - film.samples)
+        if time_budget is not None and stats.first_pass_seconds > 0 and film.samples > 0:
+            # Fit the pass into the time left, at the speed measured so far.
+            per_sample = stats.seconds / max(1, film.samples - stats_start_samples)
+            n = max(1, min(n, int((time_budget - elapsed) / per_sample))) if per_sample > 0 else n
         t0 = time.perf_counter()
         render_pass(flat, width, height, seed, film.samples, n, depth, film.total, film.total_sq, row_rays, row_bad)
         dt = time.perf_counter() - t0
@@ -126,10 +145,21 @@ def render(
         stats.rays = int(row_rays.sum())
         stats.bad_samples = int(row_bad.sum())
         stats.seconds = time.perf_counter() - render_start
+        # The estimate costs a pass over the film: needed for a noise target, else for the
+        # progress display at most once a second.
+        now = time.perf_counter()
+        if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
+            stats.noise = estimate_noise(film).relative_rms
+            last_noise = now
         if progress is not None:
             progress(stats)
+        # The estimate needs a few samples before it can be trusted to stop on.
+        if noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target:
+            stats.stop_reason = "noise"
+            break
         # Size the next pass to take about pass_seconds.
         per_sample = dt / n if n else dt
         batch = max(1, min(4 * n, int(pass_seconds / per_sample) if per_sample > 0 else 4 * n))
     stats.seconds = time.perf_counter() - render_start
+    stats.noise = estimate_noise(film).relative_rms
     return RenderResult(film, stats)

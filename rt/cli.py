@@ -100,6 +100,22 @@ def validate(
     raise typer.Exit(1 if failed else 0)
 
 
+BUDGET_SAMPLE_CAP = 1_000_000
+
+
+def _parse_duration(text: str) -> Optional[float]:
+    """Seconds in '45', '30s', '2m', '1h30m', '1.5h'; None if it is not a duration."""
+    import re
+
+    text = text.strip().lower()
+    if re.fullmatch(r"\d+(\.\d+)?", text):
+        return float(text)
+    parts = re.findall(r"(\d+(?:\.\d+)?)([hms])", text)
+    if not parts or "".join(n + u for n, u in parts) != text:
+        return None
+    return sum(float(n) * {"h": 3600, "m": 60, "s": 1}[u] for n, u in parts)
+
+
 def _fmt_seconds(seconds: float) -> str:
     if seconds < 60:
         return f"{seconds:.1f}s"
@@ -110,19 +126,29 @@ def _fmt_seconds(seconds: float) -> str:
 class _Progress:
     """A one-line progress bar on standard error (a line per 10% when it is not a terminal)."""
 
-    def __init__(self, total: int):
+    def __init__(self, total: int, seconds: Optional[float] = None, noise: Optional[float] = None):
         self.total = total
+        self.seconds = seconds
+        self.noise = noise
         self.tty = sys.stderr.isatty()
         self.last_decile = -1
 
     def __call__(self, stats) -> None:
         done = stats.samples
         frac = done / self.total if self.total else 1.0
+        # Under a budget, progress is the share of the budget spent: time, or noise (which falls
+        # as one over the square root of the samples).
+        if self.seconds:
+            frac = max(frac, stats.seconds / self.seconds)
+        if self.noise and 0 < stats.noise < float("inf"):
+            frac = max(frac, (self.noise / stats.noise) ** 2)
+        frac = min(frac, 1.0)
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
+        noise = f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
         line = (
             f"[{bar}] {done}/{self.total} spp  {_fmt_seconds(stats.seconds)} elapsed  "
-            f"ETA {_fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s"
+            f"ETA {_fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
         )
         if self.tty:
             sys.stderr.write("\r" + line)
@@ -150,8 +176,21 @@ def render(
     max_depth: Optional[int] = typer.Option(None, "--max-depth", min=1, max=10_000, help="Most bounces per path."),
     seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Seed of the random numbers."),
     threads: Optional[int] = typer.Option(None, "--threads", min=1, help="Worker threads (default: all cores)."),
+    time_budget: Optional[str] = typer.Option(
+        None, "--time", help="Render in passes until this much time is spent (30s, 2m, 1h); --spp is then the cap."
+    ),
+    noise: Optional[float] = typer.Option(
+        None, "--noise", min=0.0, help="Render until the estimated relative RMS noise is below this (0.02 = 2%); --spp is then the cap."
+    ),
+    noise_map: Optional[Path] = typer.Option(None, "--noise-map", help="Write the per-pixel noise estimate as a PNG."),
+    save_state: Optional[Path] = typer.Option(
+        None, "--save-state", help="Save the render's sums (.npz) so it can be continued with --resume."
+    ),
+    resume: Optional[Path] = typer.Option(
+        None, "--resume", help="Continue the render saved with --save-state, up to --spp samples in all."
+    ),
 ) -> None:
-    """Render a scene to a PNG image (and optionally a linear HDR image)."""
+    """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import signal
     import time
 
@@ -166,7 +205,13 @@ def render(
             typer.echo(str(diag), err=True)
         raise typer.Exit(1)
     out = output if output is not None else Path(scene.stem + ".png")
-    for path, allowed in ((out, (".png",)), (hdr, (".pfm",))):
+    budget_seconds = None
+    if time_budget is not None:
+        budget_seconds = _parse_duration(time_budget)
+        if budget_seconds is None:
+            typer.echo(f"error: --time {time_budget!r}: expected a duration such as 30s, 2m, 1h30m or 45", err=True)
+            raise typer.Exit(1)
+    for path, allowed in ((out, (".png",)), (hdr, (".pfm",)), (noise_map, (".png",)), (save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             typer.echo(f"error: {path}: the file name must end in {' or '.join(allowed)}", err=True)
             raise typer.Exit(1)
@@ -176,7 +221,10 @@ def render(
 
     import numba
 
-    from renderer.film import write_image
+    from renderer.film import estimate_noise, noise_map_image, write_image
+    from renderer.state import RenderKey, load_state, scene_fingerprint
+    from renderer.state import save_state as write_state
+    from scenefmt.writing import dumps
     from renderer.render import kernels_cached, with_width
     from renderer.render import render as render_graph
 
@@ -186,7 +234,24 @@ def render(
             raise typer.Exit(1)
         numba.set_num_threads(threads)
     graph = loaded.graph if width is None else with_width(loaded.graph, width)
-    target = spp if spp is not None else graph.image.samples_per_pixel
+    budgeted = budget_seconds is not None or noise is not None
+    # With a time or noise budget the sample count is only a cap.
+    target = spp if spp is not None else (BUDGET_SAMPLE_CAP if budgeted else graph.image.samples_per_pixel)
+    key = RenderKey(
+        scene_fingerprint(dumps(loaded.scene, "json")),
+        graph.image.width,
+        graph.image.pixel_height,
+        max_depth if max_depth is not None else graph.image.max_depth,
+        seed if seed is not None else graph.image.seed,
+    )
+    film = None
+    if resume is not None:
+        try:
+            film = load_state(resume, key)
+        except (OSError, ValueError, KeyError) as exc:
+            typer.echo(f"error: --resume: {exc}", err=True)
+            raise typer.Exit(1)
+        typer.echo(f"resuming {resume}: {film.samples} samples per pixel already rendered", err=True)
     stop = {"requested": False}
 
     def on_interrupt(signum, frame):
@@ -201,10 +266,11 @@ def render(
             err=True,
         )
     previous = signal.signal(signal.SIGINT, on_interrupt)
-    bar = _Progress(target)
+    bar = _Progress(target, budget_seconds, noise)
     try:
         result = render_graph(
-            graph, samples=spp, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"]
+            graph, samples=target, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"],
+            film=film, time_budget=budget_seconds, noise_target=noise,
         )
     finally:
         bar.close()
@@ -217,12 +283,28 @@ def render(
     write_image(out, image)
     if hdr is not None:
         write_image(hdr, image)
+    estimate = estimate_noise(film)
+    if noise_map is not None:
+        write_image(noise_map, noise_map_image(estimate))
+    if save_state is not None:
+        write_state(save_state, film, key)
     total = time.perf_counter() - started
-    written = str(out) + (f" and {hdr}" if hdr is not None else "")
+    written = ", ".join(str(p) for p in (out, hdr, noise_map, save_state) if p is not None)
     typer.echo(
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp, {_fmt_seconds(stats.seconds)} rendering "
         f"({_fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
+    wx, wy = estimate.worst_pixel
+    typer.echo(
+        f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
+        f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
+    )
+    if stats.stop_reason == "time":
+        typer.echo(f"stopped: the {time_budget} time budget is spent", err=True)
+    elif stats.stop_reason == "noise":
+        typer.echo(f"stopped: the estimated noise {100 * stats.noise:.2f}% is below the {100 * noise:.2f}% target", err=True)
+    elif budgeted and not stats.interrupted:
+        typer.echo(f"stopped at the cap of {target} samples per pixel before the budget was reached", err=True)
     if stats.bad_samples:
         typer.echo(f"warning: {stats.bad_samples} samples were not finite and were left out (please report this scene)", err=True)
     if stats.interrupted:

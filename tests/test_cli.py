@@ -175,3 +175,38 @@ def test_ctrl_c_saves_the_samples_rendered_so_far(tmp_path):
     assert "interrupted: the image holds" in err
     assert (tmp_path / "ball.png").is_file()
     assert "wrote ball.png" in out
+
+
+def test_render_reports_noise_writes_a_noise_map_and_resumes(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    first = run_rt("render", "ball.yaml", "--spp", "4", "--save-state", "s.npz", "--noise-map", "n.png", "--hdr", "a.pfm",
+                   cwd=tmp_path)
+    assert first.returncode == 0, first.stderr
+    assert "noise: " in first.stdout and "% relative RMS" in first.stdout
+    assert (tmp_path / "n.png").is_file() and (tmp_path / "s.npz").is_file()
+    resumed = run_rt("render", "ball.yaml", "--spp", "8", "--resume", "s.npz", "--hdr", "b.pfm", cwd=tmp_path)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resuming s.npz: 4 samples per pixel already rendered" in resumed.stderr
+    whole = run_rt("render", "ball.yaml", "--spp", "8", "--hdr", "c.pfm", cwd=tmp_path)
+    assert (tmp_path / "b.pfm").read_bytes() == (tmp_path / "c.pfm").read_bytes()
+    other = run_rt("render", "ball.yaml", "--spp", "8", "--seed", "9", "--resume", "s.npz", cwd=tmp_path)
+    assert other.returncode == 1 and "does not match" in other.stderr and "seed 5 (now 9)" in other.stderr
+
+
+def test_render_with_a_noise_target_says_why_it_stopped(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    out = run_rt("render", "ball.yaml", "--noise", "0.05", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "stopped: the estimated noise" in out.stderr and "below the 5.00% target" in out.stderr
+
+
+def test_durations_are_parsed():
+    from rt.cli import _parse_duration
+
+    assert _parse_duration("30s") == 30
+    assert _parse_duration("2m") == 120
+    assert _parse_duration("1h30m") == 5400
+    assert _parse_duration("45") == 45
+    assert _parse_duration("1.5h") == 5400
+    assert _parse_duration("soon") is None
+    assert _parse_duration("3x") is None

@@ -189,6 +189,9 @@ def render(
     resume: Optional[Path] = typer.Option(
         None, "--resume", help="Continue the render saved with --save-state, up to --spp samples in all."
     ),
+    explain: bool = typer.Option(
+        False, "--explain", help="Print which effects the scene uses, and the element that switches each on."
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import signal
@@ -204,6 +207,11 @@ def render(
         for diag in exc.diagnostics:
             typer.echo(str(diag), err=True)
         raise typer.Exit(1)
+    if explain:
+        from scenefmt.effects import summarize
+
+        for effect in summarize(loaded.graph).effects:
+            typer.echo(f"{effect}", err=True)
     out = output if output is not None else Path(scene.stem + ".png")
     budget_seconds = None
     if time_budget is not None:

@@ -210,3 +210,11 @@ def test_durations_are_parsed():
     assert _parse_duration("1.5h") == 5400
     assert _parse_duration("soon") is None
     assert _parse_duration("3x") is None
+
+
+def test_render_explain_names_the_element_behind_each_effect(tmp_path):
+    write(tmp_path, "ball.yaml", SMALL)
+    out = run_rt("render", "ball.yaml", "--spp", "1", "--explain", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "media: on (shapes[1] holds fog)" in out.stderr
+    assert "motion blur: off" in out.stderr and "dielectrics: on (shapes[1] is glass-like)" in out.stderr

@@ -36,7 +36,6 @@ def main() -> int:
         result = render(graph, samples=spp)
         write_png(OUT / f"{path.stem}.png", result.film.mean())
         stats = result.stats
-        title = loaded.scene.description.split(":")[0] if loaded.scene.description else path.stem
         rows.append(
             f"| `{path.name}` | ![{path.stem}](gallery/{path.stem}.png) | {graph.image.width}x{graph.image.pixel_height}, "
             f"{spp} spp, depth {graph.image.max_depth} | {stats.seconds:.1f} s, {stats.rays_per_second / 1e6:.1f} Mrays/s |"

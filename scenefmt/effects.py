@@ -7,7 +7,7 @@ the renderer can choose a kernel that simulates nothing the scene does not use.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Iterator, Optional, Union
+from typing import Iterator, Union
 
 from . import affine
 from .diagnostics import format_path

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Optional, Union
+from typing import Optional, Union
 
 from . import affine
 from .affine import Affine
@@ -115,10 +115,6 @@ class SceneGraph:
     groups: list[GroupNode]
     warnings: list[Diagnostic] = field(default_factory=list)
     source: Optional[str] = None
-
-    def walk(self, group: Optional[GroupNode] = None) -> Iterable[Union[ShapeNode, InstanceNode]]:
-        """Every member of `group` (the root by default), not descending into instances."""
-        return iter((group or self.root).members)
 
 
 class _Resolver:

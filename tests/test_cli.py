@@ -188,6 +188,7 @@ def test_render_reports_noise_writes_a_noise_map_and_resumes(tmp_path):
     assert resumed.returncode == 0, resumed.stderr
     assert "resuming s.npz: 4 samples per pixel already rendered" in resumed.stderr
     whole = run_rt("render", "ball.yaml", "--spp", "8", "--hdr", "c.pfm", cwd=tmp_path)
+    assert whole.returncode == 0, whole.stderr
     assert (tmp_path / "b.pfm").read_bytes() == (tmp_path / "c.pfm").read_bytes()
     other = run_rt("render", "ball.yaml", "--spp", "8", "--seed", "9", "--resume", "s.npz", cwd=tmp_path)
     assert other.returncode == 1 and "does not match" in other.stderr and "seed 5 (now 9)" in other.stderr

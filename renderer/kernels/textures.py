@@ -4,7 +4,7 @@ import math
 
 from numba import njit
 
-from ..layout import NOISE_MARBLE, NOISE_PLAIN, TEX_CHECKER, TEX_IMAGE, TEX_NOISE, TEX_SOLID
+from ..layout import NOISE_MARBLE, NOISE_PLAIN, TEX_CHECKER, TEX_IMAGE, TEX_SOLID
 
 
 @njit(cache=True, error_model="numpy")

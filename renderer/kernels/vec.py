@@ -16,11 +16,6 @@ def sub(a, b):
 
 
 @njit(inline="always", cache=True, error_model="numpy")
-def mul(a, b):
-    return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
-
-
-@njit(inline="always", cache=True, error_model="numpy")
 def scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 

@@ -10,7 +10,7 @@ leaves nearly every |z| below 4.5; a change that alters the image moves many blo
 import numpy as np
 import pytest
 
-from tests.renderer.references import BLOCK, REF_DIR, block_stats, render_small, scene_files
+from tests.renderer.references import REF_DIR, block_stats, render_small, scene_files
 
 TEST_SPP = 64
 TEST_SEED = 2

@@ -15,6 +15,7 @@ from typing import Optional
 import numpy as np
 
 from scenefmt import affine
+from scenefmt.diagnostics import format_path
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode, TextureNode
 from scenefmt.scene import SkyBackground
 
@@ -122,7 +123,10 @@ class _Compiler:
             child = (self.texture(node.inputs["even"]), self.texture(node.inputs["odd"]))
         elif m.type == "image":
             kind = L.TEX_IMAGE
-            texels = load_image_texels(node.image_path, m.colorspace)
+            try:
+                texels = load_image_texels(node.image_path, m.colorspace)
+            except ValueError as exc:
+                raise ValueError(f"image texture at {format_path(node.path)}: {exc}") from None
             h, w = texels.shape[:2]
             param = (float(self.texel_count), float(w), float(h), 0.0)
             self.texel_chunks.append(texels.reshape(-1, 3))

@@ -16,12 +16,15 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 
 def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
     """An (h, w, 3) float32 array of linear RGB, row 0 at the top of the image."""
-    from PIL import Image
+    from PIL import Image, UnidentifiedImageError
 
-    with Image.open(path) as img:
-        if img.width * img.height > MAX_TEXTURE_PIXELS:
-            raise ValueError(f"{path}: {img.width} x {img.height} is larger than the {MAX_TEXTURE_PIXELS:,} pixels allowed")
-        rgb = np.asarray(img.convert("RGB"), dtype=np.float64) / 255.0
+    try:
+        with Image.open(path) as img:
+            if img.width * img.height > MAX_TEXTURE_PIXELS:
+                raise ValueError(f"{path}: {img.width} x {img.height} is larger than the {MAX_TEXTURE_PIXELS:,} pixels allowed")
+            rgb = np.asarray(img.convert("RGB"), dtype=np.float64) / 255.0
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+        raise ValueError(f"{path}: cannot read it as an image ({exc})") from None
     if colorspace == "srgb":
         rgb = srgb_to_linear(rgb)
     return np.ascontiguousarray(rgb, dtype=np.float32)

@@ -280,9 +280,16 @@ def render(
             graph, samples=target, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"],
             film=film, time_budget=budget_seconds, noise_target=noise,
         )
+    except ValueError as exc:  # input the format cannot check, such as an unreadable image file
+        failure = str(exc)
+    else:
+        failure = None
     finally:
         bar.close()
         signal.signal(signal.SIGINT, previous)
+    if failure is not None:
+        typer.echo(f"error: {scene}: {failure}", err=True)
+        raise typer.Exit(1)
     stats, film = result.stats, result.film
     if film.samples == 0:
         typer.echo("interrupted before the first pass finished: nothing to save", err=True)

@@ -10,6 +10,6 @@ BVH_STACK = 64  # traversal stack depth (a binned SAH tree over 10^7 primitives 
 # 1e-9 leaves seven orders of margin while staying far below any feature a scene can resolve.
 SPAWN_OFFSET = 1e-9
 
-# Largest image texture accepted, in pixels.
-MAX_TEXTURE_PIXELS = 16384 * 16384
+# Largest image texture accepted, in pixels (the same bound `rt validate` checks).
+from scenefmt.graph import MAX_TEXTURE_PIXELS  # noqa: E402,F401 (re-exported for the texture loader)
 

@@ -117,6 +117,23 @@ class SceneGraph:
     source: Optional[str] = None
 
 
+MAX_TEXTURE_PIXELS = 16384 * 16384
+
+
+def _image_problem(path: Path) -> Optional[str]:
+    """Why `path` cannot serve as an image texture, or None. Reads only the file's header."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            width, height = img.size
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+        return f"is not a readable image ({exc})"
+    if width * height > MAX_TEXTURE_PIXELS:
+        return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
+    return None
+
+
 class _Resolver:
     def __init__(self, scene: Scene, doc: Optional[SourceDocument], broken: dict[str, set], shape_paths: Optional[list]):
         self.scene = scene
@@ -208,6 +225,10 @@ class _Resolver:
         resolved = (self.doc.base_dir / file).resolve()
         if not resolved.is_file():
             self.error(path, f"image file '{file}' not found (looked for {resolved})")
+            return None
+        problem = _image_problem(resolved)
+        if problem:
+            self.error(path, f"image file '{file}' {problem}")
             return None
         return resolved
 

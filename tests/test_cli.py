@@ -221,12 +221,13 @@ def test_render_explain_names_the_element_behind_each_effect(tmp_path):
     assert "motion blur: off" in out.stderr and "dielectrics: on (shapes[1] is glass-like)" in out.stderr
 
 
-def test_render_reports_an_unreadable_image_texture_without_a_traceback(tmp_path):
+def test_an_unreadable_image_texture_is_a_scene_error_without_a_traceback(tmp_path):
     (tmp_path / "tex.png").write_text("not a png")
     write(tmp_path, "s.yaml", "materials: {e: {type: lambertian, albedo: {type: image, file: tex.png}}}\n"
                               "shapes: [{type: sphere, center: [0, 0, -2], radius: 1, material: e}]\n")
     out = run_rt("render", "s.yaml", cwd=tmp_path)
     assert out.returncode == 1
-    assert "image texture at materials.e.albedo" in out.stderr and "cannot read it as an image" in out.stderr
+    # The scene check already reads the image's header, so the error has a file position.
+    assert "s.yaml:1:63: error: materials.e.albedo.file: image file 'tex.png' is not a readable image" in out.stderr
     assert "Traceback" not in out.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml", "tex.png"]

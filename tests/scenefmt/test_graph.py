@@ -130,7 +130,9 @@ shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: used}]
 
 def test_image_files_resolve_relative_to_the_scene_file(tmp_path):
     (tmp_path / "maps").mkdir()
-    (tmp_path / "maps" / "earth.png").write_bytes(b"not checked here")
+    from PIL import Image
+
+    Image.new("RGB", (4, 2), (10, 20, 30)).save(tmp_path / "maps" / "earth.png")
     text = """
 materials: {e: {type: lambertian, albedo: {type: image, file: maps/earth.png}}}
 shapes: [{type: sphere, center: [0, 0, 0], radius: 2, material: e}]

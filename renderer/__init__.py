@@ -27,5 +27,19 @@ def _cache_dir() -> Path:
     return base / digest.hexdigest()[:16]
 
 
+def _writable(path: Path) -> bool:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".write-test"
+        probe.write_bytes(b"")
+        probe.unlink()
+        return True
+    except OSError:
+        return False
+
+
 if not os.environ.get("NUMBA_CACHE_DIR"):
-    numba.config.CACHE_DIR = str(_cache_dir())
+    _dir = _cache_dir()
+    # Where the home folder is read-only, Numba's own choice of cache folder is kept.
+    if _writable(_dir):
+        numba.config.CACHE_DIR = str(_dir)

@@ -310,10 +310,13 @@ def render(
         f"({_fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
     wx, wy = estimate.worst_pixel
-    typer.echo(
-        f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
-        f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
-    )
+    if film.samples < 2:
+        typer.echo("noise: not estimated (it takes at least 2 samples per pixel)")
+    else:
+        typer.echo(
+            f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
+            f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
+        )
     if stats.stop_reason == "time":
         typer.echo(f"stopped: the {time_budget} time budget is spent", err=True)
     elif stats.stop_reason == "noise":

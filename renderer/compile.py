@@ -103,6 +103,8 @@ class _Compiler:
         self.blas_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
+        # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
+        self.own_instance: dict[int, int] = {}
 
     # --- textures and materials ----------------------------------------------------------------
 
@@ -283,8 +285,6 @@ class _Compiler:
             elif id(member) in self.own_instance:
                 self.instances.append((self.own_instance[id(member)], affine.compose(world_from_group, member.transform)))
 
-    own_instance: dict[int, int]
-
     def fill(self, group: GroupNode, tables: _Tables) -> None:
         for member in group.members:
             if isinstance(member, InstanceNode):
@@ -299,7 +299,6 @@ class _Compiler:
     # --- the whole scene -----------------------------------------------------------------------
 
     def run(self) -> FlatScene:
-        self.own_instance = {}
         self.place(self.graph.root, affine.IDENTITY)
         prim_kind, prim_rows, prim_mat = [], [], []
         node_parts = {k: [] for k in ("lo", "hi", "a", "n", "axis")}

@@ -9,7 +9,3 @@ BVH_STACK = 64  # traversal stack depth (a binned SAH tree over 10^7 primitives 
 # the coordinates involved: float64 rounding of a hit point is ~1e-16 of that magnitude, so
 # 1e-9 leaves seven orders of margin while staying far below any feature a scene can resolve.
 SPAWN_OFFSET = 1e-9
-
-# Largest image texture accepted, in pixels (the same bound `rt validate` checks).
-from scenefmt.graph import MAX_TEXTURE_PIXELS  # noqa: E402,F401 (re-exported for the texture loader)
-

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import MAX_TEXTURE_PIXELS
+from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
 
 
 def srgb_to_linear(values: np.ndarray) -> np.ndarray:

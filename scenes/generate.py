@@ -117,7 +117,16 @@ BIG_THREE = [
 ]
 
 
-def small_spheres(rnd: BookRandom, make_diffuse, make_metal) -> list:
+def small_metal(rnd: BookRandom, center) -> Sphere:
+    """A small metal sphere, as both books draw it: three albedo channels in [0.5, 1), then a fuzz
+    in [0, 0.5) (the old book's 0.5*(1 + drand48()) and 0.5*drand48(); v4's color::random(0.5, 1)
+    and random_double(0, 0.5))."""
+    albedo = rnd.vec(0.5, 1)
+    fuzz = rnd.double(0, 0.5)
+    return Sphere(center=rounded(center), radius=0.2, material=Metal(albedo=rounded(albedo), fuzz=rounded(fuzz)))
+
+
+def small_spheres(rnd: BookRandom, make_diffuse) -> list:
     """The 22 x 22 grid of candidate spheres, a and b in [-11, 11).
 
     Per cell: choose_mat, then the x and z jitter of the centre; a sphere too close to the
@@ -134,7 +143,7 @@ def small_spheres(rnd: BookRandom, make_diffuse, make_metal) -> list:
             if choose_mat < 0.8:
                 shapes.append(make_diffuse(rnd, center))
             elif choose_mat < 0.95:
-                shapes.append(make_metal(rnd, center))
+                shapes.append(small_metal(rnd, center))
             else:
                 shapes.append(Sphere(center=rounded(center), radius=0.2, material="glass"))
     return shapes
@@ -149,14 +158,8 @@ def weekend_cover() -> Scene:
         albedo = tuple(rnd.double() * rnd.double() for _ in "rgb")
         return Sphere(center=rounded(center), radius=0.2, material=Lambertian(albedo=rounded(albedo)))
 
-    def metal(rnd, center):
-        # metal(vec3(0.5*(1 + drand48()), ...), 0.5*drand48())
-        albedo = tuple(0.5 * (1 + rnd.double()) for _ in "rgb")
-        fuzz = 0.5 * rnd.double()
-        return Sphere(center=rounded(center), radius=0.2, material=Metal(albedo=rounded(albedo), fuzz=rounded(fuzz)))
-
     shapes = [Sphere(center=(0, -1000, 0), radius=1000, material="ground")]
-    shapes += small_spheres(rnd, diffuse, metal)
+    shapes += small_spheres(rnd, diffuse)
     shapes += BIG_THREE
     return Scene(
         description=(
@@ -186,14 +189,8 @@ def bouncing_spheres() -> Scene:
             center0=rounded(center), center1=rounded(center2), radius=0.2, material=Lambertian(albedo=rounded(albedo))
         )
 
-    def metal(rnd, center):
-        # albedo = color::random(0.5, 1); fuzz = random_double(0, 0.5)
-        albedo = rnd.vec(0.5, 1)
-        fuzz = rnd.double(0, 0.5)
-        return Sphere(center=rounded(center), radius=0.2, material=Metal(albedo=rounded(albedo), fuzz=rounded(fuzz)))
-
     shapes = [Sphere(center=(0, -1000, 0), radius=1000, material="ground")]
-    shapes += small_spheres(rnd, diffuse, metal)
+    shapes += small_spheres(rnd, diffuse)
     shapes += BIG_THREE
     return Scene(
         description=(

@@ -1,6 +1,7 @@
 """The shipped JSON Schema: generated from the models, draft-07, and in agreement with them."""
 
 import json
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -84,12 +85,21 @@ def test_json_schema_rejects_what_the_models_reject(data, validator):
 
 def test_wheel_contains_the_schema(tmp_path):
     # A non-editable install ships what the wheel holds; build one without network access.
+    # Build from a clean copy: a leftover *.egg-info in the checkout would add files the package
+    # list forgets, and hide exactly the mistake this test is for.
+    source = tmp_path / "src"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns("*.egg-info", "build", "dist", ".venv", ".git", "__pycache__"))
+    out = tmp_path / "wheel"
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", str(ROOT), "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path)],
+        [sys.executable, "-m", "pip", "wheel", str(source), "--no-deps", "--no-build-isolation", "-q", "-w", str(out)],
         check=True,
         cwd=tmp_path,
     )
-    (wheel,) = tmp_path.glob("*.whl")
+    (wheel,) = out.glob("*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     assert "scenefmt/schemas/scene.schema.json" in names
     assert json.loads(zipfile.ZipFile(wheel).read("scenefmt/schemas/scene.schema.json")) == json.loads(schema_json())
+    # Every source module of the packages ships (a subpackage left out of the list broke `pip install .`).
+    for package in ("scenefmt", "renderer", "rt"):
+        for module in (ROOT / package).rglob("*.py"):
+            assert module.relative_to(ROOT).as_posix() in names, f"{module.relative_to(ROOT)} is missing from the wheel"

@@ -1,5 +1,7 @@
 """Rendering as a whole: BVH against brute force, determinism, passes, film output."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -99,6 +101,9 @@ def test_pfm_round_trip_keeps_linear_values(tmp_path):
     write_image(tmp_path / "x.pfm", image)
     assert np.allclose(read_pfm(tmp_path / "x.pfm"), image, rtol=1e-6)
     assert [p.name for p in tmp_path.iterdir()] == ["x.pfm"]  # no temporary file left behind
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (tmp_path / "x.pfm").stat().st_mode & 0o777 == 0o666 & ~umask  # not the temporary file's 0600
 
 
 def test_a_write_that_fails_half_way_leaves_no_file(tmp_path):

@@ -20,6 +20,7 @@ from scenefmt.graph import SceneGraph
 from .compile import compile_scene
 from .film import Film, estimate_noise
 from .flat import FlatScene
+from .variants import GENERAL, KernelFeatures, features_of, kernels_for
 
 PASS_SECONDS = 0.25
 MIN_SAMPLES_FOR_NOISE = 8
@@ -38,6 +39,7 @@ class RenderStats:
     compile_seconds: float = 0.0  # flattening the graph and building the BVHs
     kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
     first_pass_seconds: float = 0.0
+    features: Optional[KernelFeatures] = None  # the kernel's feature set
 
     @property
     def rays_per_second(self) -> float:
@@ -59,12 +61,13 @@ def with_width(graph: SceneGraph, width: int) -> SceneGraph:
     return dataclasses.replace(graph, image=image.model_copy(update=update))
 
 
-def kernels_cached() -> bool:
-    """Whether the render kernel is compiled in this process or waiting in the disk cache.
+def kernels_cached(features: KernelFeatures = GENERAL) -> bool:
+    """Whether the render kernel for `features` is compiled in this process or waiting in the disk cache.
 
-    False means the next render starts by compiling it (a minute or two, once per installation).
+    False means the next render starts by compiling it (a minute or so, once per installation
+    and feature set).
     """
-    from .kernels.integrator import render_pass
+    render_pass = kernels_for(features).render_pass
 
     if render_pass.signatures:
         return True
@@ -87,6 +90,7 @@ def render(
     pass_seconds: float = PASS_SECONDS,
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
+    features: Optional[KernelFeatures] = None,
 ) -> RenderResult:
     """Render `graph` (its image settings, unless overridden) until `samples` per pixel are done.
 
@@ -95,8 +99,11 @@ def render(
     `time_budget` (seconds of rendering) or `noise_target` (relative RMS noise, see
     `film.estimate_noise`) the render also stops when the time is spent or the estimated noise
     falls below the target; `samples` is then the cap.
+
+    `features` chooses the kernel: by default the one specialised to the scene's features
+    (`variants.features_of`); `variants.GENERAL` renders with every path compiled in. Any
+    kernel that has the paths the scene reaches gives the same image.
     """
-    from .kernels.integrator import render_pass
 
     image = graph.image
     width, height = image.width, image.pixel_height
@@ -108,6 +115,11 @@ def render(
     if flat is None:
         flat = compile_scene(graph)
     stats.compile_seconds = time.perf_counter() - start
+    needed = features_of(flat)
+    if features is not None and not features.covers(needed):
+        raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
+    stats.features = features if features is not None else needed
+    render_pass = kernels_for(stats.features).render_pass
     if film is None:
         film = Film.empty(width, height)
     stats.samples = film.samples

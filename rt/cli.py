@@ -233,7 +233,9 @@ def render(
     from renderer.state import RenderKey, load_state, scene_fingerprint
     from renderer.state import save_state as write_state
     from scenefmt.writing import dumps
+    from renderer.compile import compile_scene
     from renderer.render import kernels_cached, with_width
+    from renderer.variants import features_of
     from renderer.render import render as render_graph
 
     if threads is not None:
@@ -268,9 +270,18 @@ def render(
         stop["requested"] = True
         sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
 
-    if not kernels_cached():
+    try:
+        flat = compile_scene(graph)
+    except ValueError as exc:  # input the format cannot check, such as an unreadable image file
+        typer.echo(f"error: {scene}: {exc}", err=True)
+        raise typer.Exit(1)
+    features = features_of(flat)
+    if explain:
+        typer.echo(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
+    if not kernels_cached(features):
         typer.echo(
-            f"compiling the renderer for this installation (about two minutes on 2 cores, once; cached in {numba.config.CACHE_DIR})",
+            f"compiling the renderer for this feature set ({features.tag}): about a minute on 2 cores, once; "
+            f"cached in {numba.config.CACHE_DIR}",
             err=True,
         )
     previous = signal.signal(signal.SIGINT, on_interrupt)
@@ -278,9 +289,9 @@ def render(
     try:
         result = render_graph(
             graph, samples=target, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"],
-            film=film, time_budget=budget_seconds, noise_target=noise,
+            film=film, time_budget=budget_seconds, noise_target=noise, flat=flat, features=features,
         )
-    except ValueError as exc:  # input the format cannot check, such as an unreadable image file
+    except ValueError as exc:
         failure = str(exc)
     else:
         failure = None

@@ -5,6 +5,7 @@ import math
 from numba import njit
 
 from ..layout import DISK, MOVING_SPHERE, QUAD, SPHERE, TRIANGLE
+from .features import MOTION
 from .vec import dot, madd, max_abs, row3, scale, sub
 
 INF = math.inf
@@ -12,15 +13,15 @@ INF = math.inf
 PARALLEL_EPS = 1e-12
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def sphere_center(kind, data, i, time):
     c = row3(data, i, 0)
-    if kind == MOVING_SPHERE:
+    if MOTION and kind == MOVING_SPHERE:
         c = madd(c, row3(data, i, 4), time)
     return c
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def hit_sphere(c, r, o, d, tmin, tmax):
     """Nearest root in (tmin, tmax) of |o + t d - c| = r, or inf.
 
@@ -54,7 +55,7 @@ def hit_sphere(c, r, o, d, tmin, tmax):
     return INF
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def hit_planar(kind, data, i, o, d, tmin, tmax):
     nx, ny, nz = data[i, 3], data[i, 4], data[i, 5]
     denom = nx * d[0] + ny * d[1] + nz * d[2]
@@ -86,7 +87,7 @@ def hit_planar(kind, data, i, o, d, tmin, tmax):
     return t
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def hit_primitive(kind, data, i, o, d, tmin, tmax, time):
     """Distance to primitive i of a surface kind along the ray, or inf."""
     if kind == SPHERE or kind == MOVING_SPHERE:
@@ -94,7 +95,7 @@ def hit_primitive(kind, data, i, o, d, tmin, tmax, time):
     return hit_planar(kind, data, i, o, d, tmin, tmax)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_nrt=False, cache=True, error_model="numpy")
 def sphere_uv(n_obj):
     """(u, v) of a unit outward normal: u around +y starting at -x, v from the bottom pole."""
     y = min(1.0, max(-1.0, -n_obj[1]))
@@ -103,7 +104,7 @@ def sphere_uv(n_obj):
     return phi / (2.0 * math.pi), theta / math.pi
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def surface(kind, data, i, o, d, t, time):
     """Hit point, unit outward normal and (u, v) of a hit at distance t."""
     p = madd(o, d, t)

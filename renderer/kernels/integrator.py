@@ -7,6 +7,7 @@ from numba import njit, prange
 
 from ..config import BVH_STACK, SPAWN_OFFSET
 from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
+from .features import DEFOCUS, EMITTERS, INSTANCES, MEDIA, MOTION, SKY
 from .geometry import surface
 from .materials import is_zero, scatter
 from .rng import DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
@@ -15,15 +16,15 @@ from .traverse import intersect_scene
 from .vec import dot, madd, max_abs, neg, unit, xform_normal, xform_point, xform_vector
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def background(bg, d):
-    if bg[0] == BACKGROUND_SKY:
+    if SKY and bg[0] == BACKGROUND_SKY:
         a = 0.5 * (unit(d)[1] + 1.0)
         return ((1.0 - a) * bg[1] + a * bg[4], (1.0 - a) * bg[2] + a * bg[5], (1.0 - a) * bg[3] + a * bg[6])
     return (bg[1], bg[2], bg[3])
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def camera_ray(cam, i, j, key):
     """Origin, direction and time of the camera ray through pixel (i, j) for the path with `key`."""
     ox = uniform(key, DIM_PIXEL_X) - 0.5
@@ -34,7 +35,7 @@ def camera_ray(cam, i, j, key):
         cam[5] + (i + ox) * cam[8] + (j + oy) * cam[11],
     )
     origin = (cam[0], cam[1], cam[2])
-    if cam[18] > 0.0:
+    if DEFOCUS and cam[18] > 0.0:
         # A uniform point on the lens disk (polar form: r = sqrt(U) keeps the density uniform).
         r = math.sqrt(uniform(key, DIM_LENS_X))
         phi = 2.0 * math.pi * uniform(key, DIM_LENS_Y)
@@ -44,11 +45,14 @@ def camera_ray(cam, i, j, key):
             cam[1] + lx * cam[13] + ly * cam[16],
             cam[2] + lx * cam[14] + ly * cam[17],
         )
-    time = cam[19] + uniform(key, DIM_TIME) * (cam[20] - cam[19])
+    into_shutter = 0.0
+    if MOTION:
+        into_shutter = uniform(key, DIM_TIME) * (cam[20] - cam[19])
+    time = cam[19] + into_shutter
     return origin, (target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]), time
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def trace(S, key, o, d, time, max_depth, stack, tstack):
     """Radiance along one camera path, and the number of rays it cast."""
     r, g, b = 0.0, 0.0, 0.0
@@ -69,7 +73,7 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         prim_kind = S.prims_i[prim, 0]
         mat = S.prims_i[prim, 1]
         kind = S.mat_i[mat, 0]
-        if prim_kind == MEDIUM:
+        if MEDIA and prim_kind == MEDIUM:
             # A scattering event inside a medium: no surface, no normal, no (u, v).
             p = madd(o, d, t)
             n = (1.0, 0.0, 0.0)
@@ -77,18 +81,18 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
             front = True
             n_front = n
         else:
-            if S.inst_i[inst, 1] == 1:
-                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time)
-            else:
+            if INSTANCES and S.inst_i[inst, 1] != 1:
                 oo = xform_point(S.inst_f, inst, 12, o)
                 dd = xform_vector(S.inst_f, inst, 12, d)
                 po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time)
                 p = xform_point(S.inst_f, inst, 0, po)
                 n = unit(xform_normal(S.inst_f, inst, 12, no))
+            else:
+                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time)
             front = dot(d, n) < 0.0
             n_front = n if front else neg(n)
         tex = S.mat_i[mat, 1]
-        if kind == DIFFUSE_LIGHT:
+        if EMITTERS and kind == DIFFUSE_LIGHT:
             e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
             r += tr * e[0]
             g += tg * e[1]
@@ -103,7 +107,7 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         tb *= att[2]
         if tr == 0.0 and tg == 0.0 and tb == 0.0:
             break
-        if prim_kind == MEDIUM:
+        if MEDIA and prim_kind == MEDIUM:
             o = p
         else:
             # Leave the surface on the side the new ray goes to, by a margin scaled to the

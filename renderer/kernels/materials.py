@@ -5,11 +5,12 @@ import math
 from numba import njit
 
 from ..layout import DIELECTRIC, ISOTROPIC, LAMBERTIAN, METAL
+from .features import DIELECTRICS
 from .rng import uniform
 from .vec import add, dot, madd, scale, unit
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def random_unit_vector(key, dim):
     """Uniform on the sphere (Marsaglia 1972): a point in the unit disk lifted to the sphere.
 
@@ -29,19 +30,19 @@ def random_unit_vector(key, dim):
     return (r * math.cos(phi), r * math.sin(phi), z)
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def reflect(v, n):
     return madd(v, n, -2.0 * dot(v, n))
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def schlick(cosine, ratio):
     r0 = (1.0 - ratio) / (1.0 + ratio)
     r0 = r0 * r0
     return r0 + (1.0 - r0) * (1.0 - cosine) ** 5
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
     """Direction of the scattered ray, or (0, 0, 0) when the surface absorbs it.
 
@@ -60,7 +61,7 @@ def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
         if dot(out, n_front) <= 0.0:
             return (0.0, 0.0, 0.0)  # fuzzed below the surface: absorbed
         return out
-    if kind == DIELECTRIC:
+    if DIELECTRICS and kind == DIELECTRIC:
         ratio = 1.0 / ior if front_face else ior
         ud = unit(d)
         cos_theta = min(-dot(ud, n_front), 1.0)
@@ -75,7 +76,7 @@ def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
     return (0.0, 0.0, 0.0)
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def is_zero(v):
     return v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0
 

@@ -27,14 +27,14 @@ DIMS_PER_BOUNCE = 10
 DIM_MEDIUM = np.uint64(1) << np.uint64(62)
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def mix64(z):
     z = (z ^ (z >> uint64(30))) * _M1
     z = (z ^ (z >> uint64(27))) * _M2
     return z ^ (z >> uint64(31))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_nrt=False, cache=True, error_model="numpy")
 def path_key(seed, pixel, sample):
     """The key of one path: a hash of the seed, the pixel index and the sample index."""
     k = mix64(uint64(seed) + _GOLDEN)
@@ -42,12 +42,12 @@ def path_key(seed, pixel, sample):
     return mix64(k ^ (uint64(sample) + _GOLDEN * uint64(3)))
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def uniform(key, dim):
     """A number in [0, 1) for dimension `dim` of the path with `key`."""
     return float(mix64(uint64(key) + uint64(dim) * _GOLDEN) >> uint64(11)) * _INV53
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def bounce_dim(bounce, k):
     return DIM_BOUNCE + bounce * DIMS_PER_BOUNCE + k

@@ -4,10 +4,11 @@ import math
 
 from numba import njit
 
+from .features import CHECKER, IMAGE, NOISE
 from ..layout import NOISE_MARBLE, NOISE_PLAIN, TEX_CHECKER, TEX_IMAGE, TEX_SOLID
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_nrt=False, cache=True, error_model="numpy")
 def perlin(perm, vec, q, x, y, z):
     """Gradient noise at (x, y, z) from table set q, in about [-1, 1]; continuous everywhere."""
     fx, fy, fz = math.floor(x), math.floor(y), math.floor(z)
@@ -31,7 +32,7 @@ def perlin(perm, vec, q, x, y, z):
     return accum
 
 
-@njit(cache=True, error_model="numpy")
+@njit(_nrt=False, cache=True, error_model="numpy")
 def turbulence(perm, vec, q, x, y, z, octaves):
     accum = 0.0
     weight = 1.0
@@ -42,18 +43,18 @@ def turbulence(perm, vec, q, x, y, z, octaves):
     return abs(accum)
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, t, u, v, p):
     """Colour of texture t at surface coordinates (u, v) and point p."""
     # Checkers choose a child texture: descend iteratively (kernels avoid recursion).
-    while tex_i[t, 0] == TEX_CHECKER:
+    while CHECKER and tex_i[t, 0] == TEX_CHECKER:
         inv = tex_f[t, 3]
         s = math.floor(inv * p[0]) + math.floor(inv * p[1]) + math.floor(inv * p[2])
         t = tex_i[t, 1] if int(s) % 2 == 0 else tex_i[t, 2]
     kind = tex_i[t, 0]
     if kind == TEX_SOLID:
         return (tex_f[t, 0], tex_f[t, 1], tex_f[t, 2])
-    if kind == TEX_IMAGE:
+    if IMAGE and kind == TEX_IMAGE:
         offset, width, height = int(tex_f[t, 3]), int(tex_f[t, 4]), int(tex_f[t, 5])
         uc = min(1.0, max(0.0, u))
         vc = 1.0 - min(1.0, max(0.0, v))  # image rows run top to bottom
@@ -61,12 +62,13 @@ def texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, t, u, v, p):
         j = min(height - 1, int(vc * height))
         k = offset + j * width + i
         return (float(texels[k, 0]), float(texels[k, 1]), float(texels[k, 2]))
-    # TEX_NOISE
-    scale, form, octaves, q = tex_f[t, 3], int(tex_f[t, 4]), int(tex_f[t, 5]), int(tex_f[t, 6])
-    if form == NOISE_PLAIN:
-        value = 0.5 * (1.0 + perlin(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2]))
-    elif form == NOISE_MARBLE:
-        value = 0.5 * (1.0 + math.sin(scale * p[2] + 10.0 * turbulence(noise_perm, noise_vec, q, p[0], p[1], p[2], octaves)))
-    else:
-        value = turbulence(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2], octaves)
-    return (tex_f[t, 0] * value, tex_f[t, 1] * value, tex_f[t, 2] * value)
+    if NOISE:  # the only kind left: TEX_NOISE
+        scale, form, octaves, q = tex_f[t, 3], int(tex_f[t, 4]), int(tex_f[t, 5]), int(tex_f[t, 6])
+        if form == NOISE_PLAIN:
+            value = 0.5 * (1.0 + perlin(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2]))
+        elif form == NOISE_MARBLE:
+            value = 0.5 * (1.0 + math.sin(scale * p[2] + 10.0 * turbulence(noise_perm, noise_vec, q, p[0], p[1], p[2], octaves)))
+        else:
+            value = turbulence(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2], octaves)
+        return (tex_f[t, 0] * value, tex_f[t, 1] * value, tex_f[t, 2] * value)
+    return (tex_f[t, 0], tex_f[t, 1], tex_f[t, 2])  # unreachable: the scene has no noise texture

@@ -11,6 +11,7 @@ import math
 from numba import njit, uint64
 
 from ..layout import MEDIUM, MOVING_SPHERE, SPHERE
+from .features import INSTANCES, MEDIA
 from .geometry import hit_planar, hit_primitive, sphere_center
 from .rng import DIM_MEDIUM, mix64, uniform
 from .vec import dot, length, sub, xform_point, xform_vector
@@ -20,7 +21,7 @@ INF = math.inf
 BIG = 1e300
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def inverse_direction(d):
     return (
         1.0 / d[0] if d[0] != 0.0 else math.copysign(BIG, d[0]),
@@ -29,7 +30,7 @@ def inverse_direction(d):
     )
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def slab(box, k, o, inv, tmin, tmax):
     """Entry distance of the ray into box k (lo 0:3, hi 3:6) if it meets [tmin, tmax], else inf."""
     t0 = (box[k, 0] - o[0]) * inv[0]
@@ -48,7 +49,7 @@ def slab(box, k, o, inv, tmin, tmax):
     return INF
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
     """At interior `node`: the child to visit next (-1 if the ray meets neither) and the stack size.
 
@@ -72,7 +73,7 @@ def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
     return -1, sp
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def pop(stack, sp, best_t):
     """The next pushed node the ray entered before the best hit so far (-1 if none), and the stack size."""
     while sp > 0:
@@ -82,7 +83,7 @@ def pop(stack, sp, best_t):
     return -1, sp
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
     enter, leave = INF, -INF
@@ -112,7 +113,7 @@ def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     return enter, leave
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
     # `inst` is the instance's serial number.
     """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
@@ -135,7 +136,7 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
     return t0 + distance / speed
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
     """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
 
@@ -153,7 +154,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
             first = nodes_i[node, 0]
             for prim in range(first, first + count):
                 kind = prims_i[prim, 0]
-                if kind == MEDIUM:
+                if MEDIA and kind == MEDIUM:
                     t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
                 else:
                     t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
@@ -170,19 +171,28 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     return best_t, best_prim
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
                     o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit in the scene: (t, prim, instance); prim -1 if the ray escapes."""
-    best_t, best_prim, best_inst = tmax, -1, -1
     n_inst = inst_i.shape[0]
     if n_inst == 0:
-        return best_t, best_prim, best_inst
-    if n_inst == 1 and inst_i[0, 1] == 1:
-        # The common case: no instancing at all, one tree in world space.
-        t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, 0],
-                                 o, d, tmin, tmax, time, key, bounce, inst_i[0, 2], stack)
-        return t, prim, 0 if prim >= 0 else -1
+        return tmax, -1, -1
+    if INSTANCES:
+        if n_inst > 1 or inst_i[0, 1] != 1:
+            return intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+                                       o, d, tmin, tmax, time, key, bounce, stack, tstack)
+    # No instancing at all: one tree in world space.
+    t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, 0],
+                             o, d, tmin, tmax, time, key, bounce, inst_i[0, 2], stack)
+    return t, prim, 0 if prim >= 0 else -1
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+                        o, d, tmin, tmax, time, key, bounce, stack, tstack):
+    """Closest hit through the top-level tree: each instance's tree in its own space."""
+    best_t, best_prim, best_inst = tmax, -1, -1
     inv = inverse_direction(d)
     if slab(tlas_f, 0, o, inv, tmin, best_t) == INF:
         return best_t, best_prim, best_inst

@@ -1,8 +1,7 @@
 """Chi-square tests of every sampling routine against its density (as Mitsuba's chi2 tests do).
 
-Each routine is run inside the kernels' own code through a small @njit wrapper, with the
-renderer's counter-based random numbers (keys from `path_key`, so the draws are exactly those
-a render makes). Samples are mapped to coordinates in which the target density is uniform,
+Each routine is run through a small @njit loop (tests/renderer/kernel_calls.py) with the
+renderer's counter-based random numbers, so the draws are exactly those a render makes. Samples are mapped to coordinates in which the target density is uniform,
 binned on a grid of equal-probability cells (>= 5 expected per cell, in fact ~1000), and the
 chi-square statistic is compared at significance `ALPHA` = 1e-3. Seeds are fixed, so every
 outcome is deterministic; the controls at the bottom show that the same check rejects the
@@ -13,61 +12,14 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
 
-from renderer.kernels.integrator import camera_ray
-from renderer.kernels.materials import fresnel_dielectric, random_unit_vector, scatter
-from renderer.kernels.rng import bounce_dim, path_key
-from renderer.kernels.traverse import medium_hit
+from renderer.kernels.materials import fresnel_dielectric
 from renderer.layout import DIELECTRIC, ISOTROPIC, LAMBERTIAN
+from tests.renderer.kernel_calls import camera_rays, medium_distances, scatter_many, unit_vectors
 from tests.renderer.stats import ALPHA, binomial_p_value, chi2_sf, chi2_test
 
 N = 200_000
 SEED = 20240607
-
-
-@njit(cache=True, error_model="numpy")
-def _unit_vectors(seed, n, bounce):
-    out = np.empty((n, 3))
-    for k in range(n):
-        v = random_unit_vector(path_key(seed, k, 0), bounce_dim(bounce, 0))
-        out[k, 0], out[k, 1], out[k, 2] = v[0], v[1], v[2]
-    return out
-
-
-@njit(cache=True, error_model="numpy")
-def _scatter(kind, fuzz, ior, d, normal, front, seed, n, bounce):
-    out = np.empty((n, 3))
-    for k in range(n):
-        v = scatter(kind, fuzz, ior, (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
-                    path_key(seed, k, 0), bounce_dim(bounce, 0))
-        out[k, 0], out[k, 1], out[k, 2] = v[0], v[1], v[2]
-    return out
-
-
-@njit(cache=True, error_model="numpy")
-def _camera(cam, seed, n):
-    """Origin, direction and time of n camera rays through pixel (0, 0)."""
-    o = np.empty((n, 3))
-    d = np.empty((n, 3))
-    t = np.empty(n)
-    for k in range(n):
-        oo, dd, tt = camera_ray(cam, 0, 0, path_key(seed, 0, k))
-        for q in range(3):
-            o[k, q] = oo[q]
-            d[k, q] = dd[q]
-        t[k] = tt
-    return o, d, t
-
-
-@njit(cache=True, error_model="numpy")
-def _medium_distances(prims_f, bnd_i, bnd_f, seed, n):
-    """Scattering distance along +z from the centre of medium 0 for n paths (inf: passed through)."""
-    out = np.empty(n)
-    for k in range(n):
-        out[k] = medium_hit(prims_f, bnd_i, bnd_f, 0, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 0.0, math.inf, 0.0,
-                            path_key(seed, k, 0), 0, 0)
-    return out
 
 
 def frame(n):
@@ -139,7 +91,7 @@ def test_binomial_p_value_matches_direct_sums():
 
 @pytest.mark.parametrize("bounce", [0, 37])
 def test_random_unit_vector_is_uniform_on_the_sphere(bounce):
-    v = _unit_vectors(SEED, N, bounce)
+    v = unit_vectors(SEED, N, bounce)
     assert np.allclose(np.linalg.norm(v, axis=1), 1.0, atol=1e-12)
     # About z and about a skew axis: the (cos, azimuth) grid depends on the axis.
     assert sphere_p_value(v) > ALPHA
@@ -148,7 +100,7 @@ def test_random_unit_vector_is_uniform_on_the_sphere(bounce):
 
 def test_isotropic_phase_is_uniform_on_the_sphere():
     d = np.array([0.3, -0.2, 0.9])
-    v = _scatter(ISOTROPIC, 0.0, 1.0, d, np.array([1.0, 0.0, 0.0]), True, SEED + 1, N, 3)
+    v = scatter_many(ISOTROPIC, 0.0, 1.0, d, np.array([1.0, 0.0, 0.0]), True, SEED + 1, N, 3)
     assert sphere_p_value(v) > ALPHA
     assert sphere_p_value(v, d) > ALPHA  # no memory of the incoming direction
 
@@ -156,7 +108,7 @@ def test_isotropic_phase_is_uniform_on_the_sphere():
 @pytest.mark.parametrize("normal", [(0.0, 0.0, 1.0), (0.0, -1.0, 0.0), (1.0, 2.0, -0.5)])
 def test_lambertian_directions_are_cosine_weighted(normal):
     n = np.array(normal) / np.linalg.norm(normal)
-    v = _scatter(LAMBERTIAN, 0.0, 1.0, -n, n, True, SEED + 2, N, 1)
+    v = scatter_many(LAMBERTIAN, 0.0, 1.0, -n, n, True, SEED + 2, N, 1)
     assert cosine_p_value(v, n) > ALPHA
 
 
@@ -168,7 +120,7 @@ def test_defocus_disk_is_uniform():
     cam[12:15], cam[15:18] = (radius, 0.0, 0.0), (0.0, radius, 0.0)
     cam[18] = radius
     cam[19], cam[20] = 0.0, 1.0
-    o, d, _ = _camera(cam, SEED + 3, N)
+    o, d, _ = camera_rays(cam, SEED + 3, N)
     assert np.allclose(o[:, 2], 0.0)
     assert disk_p_value(o[:, 0] / radius, o[:, 1] / radius) > ALPHA
 
@@ -177,7 +129,7 @@ def test_pixel_positions_are_uniform_over_the_pixel():
     cam = np.zeros(21)
     cam[3:6] = (-1.0, 1.0, -1.0)
     cam[6:9], cam[9:12] = (0.01, 0.0, 0.0), (0.0, -0.01, 0.0)
-    o, d, _ = _camera(cam, SEED + 4, N)
+    o, d, _ = camera_rays(cam, SEED + 4, N)
     # Pinhole at the origin: the direction ends on the focus plane z = -1 inside pixel (0, 0).
     fx = (d[:, 0] - (-1.0)) / 0.01 + 0.5
     fy = (d[:, 1] - 1.0) / -0.01 + 0.5
@@ -190,7 +142,7 @@ def test_time_is_uniform_over_the_shutter():
     cam[3:6] = (-1.0, 1.0, -1.0)
     cam[6:9], cam[9:12] = (0.01, 0.0, 0.0), (0.0, -0.01, 0.0)
     cam[19], cam[20] = 2.0, 5.0
-    _, _, t = _camera(cam, SEED + 5, N)
+    _, _, t = camera_rays(cam, SEED + 5, N)
     assert t.min() >= 2.0 and t.max() < 5.0
     assert chi2_test(np.bincount(((t - 2.0) / 3.0 * 100).astype(int), minlength=100), np.full(100, 0.01))[0] > ALPHA
 
@@ -204,7 +156,7 @@ def test_medium_free_flight_distance_is_exponential():
     sigma, radius = 2.0, 1.5
     scene = m.Scene(shapes=[m.Sphere(center=(0, 0, 0), radius=radius, interior=m.ConstantMedium(density=sigma))])
     flat = compile_scene(build_graph(scene))
-    t = _medium_distances(flat.prims_f, flat.bnd_i, flat.bnd_f, SEED + 6, N)
+    t = medium_distances(flat.prims_f, flat.bnd_i, flat.bnd_f, SEED + 6, N)
     escaped = np.isinf(t)
     assert (t[~escaped] >= 0).all() and (t[~escaped] <= radius * (1 + 1e-12)).all()
     # Bins of equal probability in u = 1 - e^(-sigma t) over [0, 1 - e^(-sigma R)), plus one bin for escapes.
@@ -222,7 +174,7 @@ def test_dielectric_reflects_with_the_fresnel_probability(ior, front, degrees):
     theta = math.radians(degrees)
     n = np.array([0.0, 0.0, 1.0])
     d = np.array([math.sin(theta), 0.0, -math.cos(theta)])
-    v = _scatter(DIELECTRIC, 0.0, ior, d, n, front, SEED + 7, N, 2)
+    v = scatter_many(DIELECTRIC, 0.0, ior, d, n, front, SEED + 7, N, 2)
     reflected = v[:, 2] > 0
     eta = 1 / ior if front else ior
     r, _ = fresnel_dielectric(math.cos(theta), eta)

@@ -22,7 +22,7 @@ from renderer.kernels.geometry import sphere_uv
 from renderer.kernels.materials import fresnel_dielectric, lambertian_direction, metal_direction, reflect
 from renderer.kernels.probe import probe_rays
 from renderer.kernels.textures import perlin
-from renderer.layout import DIELECTRIC, LAMBERTIAN
+from renderer.layout import DIELECTRIC, LAMBERTIAN, TEX_SOLID
 from renderer.render import render
 from renderer.textures import perlin_tables
 from scenefmt import models as m
@@ -49,6 +49,22 @@ def assert_binomial(film, p, alpha=ALPHA):
 
 
 # --- dielectrics ------------------------------------------------------------------------------
+
+
+def test_every_material_has_a_texture_row():
+    """The bug the dielectric furnace test found: a dielectric's material row pointed at texture
+    -1, so the kernels read the last texture row (the glass of every book scene was tinted by the
+    last colour defined, gold in weekend_glass) or stray memory. Colourless materials now use a
+    white texture, and the compiler refuses a row out of range."""
+    from scenefmt.validation import load
+    from tests.renderer.references import scene_files
+
+    for path in scene_files():
+        flat = compile_scene(load(path).graph)
+        assert ((flat.mat_i[:, 1] >= 0) & (flat.mat_i[:, 1] < len(flat.tex_i))).all(), path.stem
+    flat = compile_scene(build_graph(m.Scene(shapes=[m.Sphere(center=(0, 0, 0), radius=1, material=m.Dielectric())])))
+    tex = flat.mat_i[0, 1]
+    assert flat.tex_i[tex, 0] == TEX_SOLID and tuple(flat.tex_f[tex, :3]) == (1.0, 1.0, 1.0)
 
 
 def fresnel_reference(cos_i, eta):

@@ -184,3 +184,12 @@ def test_any_ray_gives_a_finite_answer(flats, o, d, length, which):
         d = (0.0, 0.0, 1.0)
     flat, brute = flats[which]
     check_rays(flat, brute, np.array([o], float), np.array([d], float) * length / max(math.hypot(*d), 1e-300))
+
+
+def test_an_empty_scene_renders_its_background():
+    """No shapes at all (an empty tree, the books' empty bounding box): every ray escapes."""
+    scene = m.Scene(camera=m.Camera(look_from=(0, 0, 0), look_at=(0, 0, -1)), background=m.SolidBackground(color=(0.25, 0.5, 1.0)),
+                    image=m.Image(width=4, height=4, samples_per_pixel=2, max_depth=5))
+    result = render(build_graph(scene))
+    assert result.stats.bad_samples == 0
+    assert np.array_equal(result.film.mean(), np.broadcast_to([0.25, 0.5, 1.0], (4, 4, 3)))

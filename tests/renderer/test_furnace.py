@@ -50,7 +50,8 @@ def test_lambertian_of_albedo_one_vanishes():
 
 @pytest.mark.parametrize("fuzz", [0.0, 0.05, 0.3, 0.7, 1.0])
 def test_metal_of_albedo_one_vanishes_at_any_fuzz(fuzz):
-    # The books absorb fuzzed rays below the surface: at fuzz 1 a quarter of the pixels lost up to 40%.
+    # The books absorb fuzzed rays below the surface: that code failed here from fuzz 0.05 on, and at
+    # fuzz 1 left 162 of the 256 pixels darker than 1, the darkest at 0.375.
     assert_white(render_scene(cluster(m.Metal(albedo=WHITE, fuzz=fuzz))))
 
 

@@ -91,6 +91,7 @@ class _Compiler:
         self.shutter_close = float(graph.shutter.close)
         self.tex_rows: list[tuple] = []
         self.tex_ids: dict[int, int] = {}
+        self.white_row: Optional[int] = None
         self.texel_chunks: list[np.ndarray] = []
         self.texel_count = 0
         self.noise: list[tuple[np.ndarray, np.ndarray]] = []
@@ -142,6 +143,13 @@ class _Compiler:
         self.tex_rows[index] = (kind, tuple(color), tuple(param), tuple(child))
         return index
 
+    def white(self) -> int:
+        """The row of a solid white texture, added once."""
+        if self.white_row is None:
+            self.white_row = len(self.tex_rows)
+            self.tex_rows.append((L.TEX_SOLID, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0, 0.0), (-1, -1)))
+        return self.white_row
+
     def material(self, node: MaterialNode) -> int:
         key = id(node)
         if key not in self.mat_ids:
@@ -149,7 +157,9 @@ class _Compiler:
             kind = {"lambertian": L.LAMBERTIAN, "metal": L.METAL, "dielectric": L.DIELECTRIC,
                     "diffuse_light": L.DIFFUSE_LIGHT, "isotropic": L.ISOTROPIC}[m.type]
             slot = node.textures.get("albedo") or node.textures.get("emit")
-            tex = self.texture(slot) if slot is not None else -1
+            # A material without a colour (a dielectric) attenuates by 1: it still needs a
+            # texture row, since the kernels look one up for every scattering material.
+            tex = self.texture(slot) if slot is not None else self.white()
             param = (getattr(m, "fuzz", 0.0), getattr(m, "ior", 1.0))
             self.mat_ids[key] = len(self.mat_rows)
             self.mat_rows.append((kind, tex, param))
@@ -358,6 +368,10 @@ class _Compiler:
         tex_param = np.array([r[2] for r in self.tex_rows], np.float64).reshape(n_tex, 4)
         tex_child = np.array([r[3] for r in self.tex_rows], np.int32).reshape(n_tex, 2)
         n_mat = len(self.mat_rows)
+        # The kernels index textures without bounds checks: a bad row would read stray memory.
+        for kind, tex, _ in self.mat_rows:
+            if not 0 <= tex < n_tex:
+                raise AssertionError(f"material of kind {kind} refers to texture row {tex} of {n_tex}")
         texels = np.concatenate(self.texel_chunks).astype(np.float32) if self.texel_chunks else np.zeros((1, 3), np.float32)
         if self.noise:
             noise_perm = np.stack([p for p, _ in self.noise]).astype(np.int32)

@@ -24,7 +24,8 @@ class Lambertian(StrictModel):
 
 
 class Metal(StrictModel):
-    """A mirror, blurred by `fuzz`; rays fuzzed below the surface are absorbed.
+    """A mirror, blurred by `fuzz`; a ray fuzzed below the surface is mirrored back above it, so
+    nothing is lost at any fuzz (the books absorb it instead; see docs/robustness.md).
 
     ```yaml
     type: metal
@@ -39,7 +40,8 @@ class Metal(StrictModel):
 
 
 class Dielectric(StrictModel):
-    """Clear glass-like material: reflects or refracts by Schlick's Fresnel approximation.
+    """Clear glass-like material: reflects or refracts, choosing by the exact Fresnel reflectance
+    (the books use Schlick's approximation, which reflects even at ior 1; see docs/robustness.md).
 
     ```yaml
     type: dielectric

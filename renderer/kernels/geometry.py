@@ -4,6 +4,7 @@ import math
 
 from numba import njit
 
+from ..config import SPAWN_OFFSET
 from ..layout import DISK, MOVING_SPHERE, QUAD, SPHERE, TRIANGLE
 from .features import MOTION
 from .vec import dot, madd, max_abs, row3, scale, sub
@@ -131,3 +132,17 @@ def surface(kind, data, i, o, d, t, time):
     if kind == DISK:
         return p, n, 0.5 * alpha + 0.5, 0.5 * beta + 0.5
     return p, n, alpha, beta
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def spawn_origin(p, o, n, d):
+    """Origin of a ray leaving hit point p (reached by a ray from o) in direction d.
+
+    The renderer casts every ray with t_min = 0, so self-intersection is avoided here instead:
+    p moves along the unit normal n, to the side d points to, by SPAWN_OFFSET times the
+    magnitude of the coordinates involved. The rounding error of a hit point is a few ulps of
+    that magnitude, so the margin is always far larger than the error and, being relative,
+    looks the same at every scale (see docs/robustness.md).
+    """
+    eps = SPAWN_OFFSET * (max_abs(p) + max_abs(o))
+    return madd(p, n, eps if dot(d, n) > 0.0 else -eps)

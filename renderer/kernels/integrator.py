@@ -5,15 +5,15 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..config import BVH_STACK, SPAWN_OFFSET
+from ..config import BVH_STACK
 from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
 from .features import DEFOCUS, EMITTERS, INSTANCES, MEDIA, MOTION, SKY
-from .geometry import surface
+from .geometry import spawn_origin, surface
 from .materials import is_zero, scatter
 from .rng import DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
 from .textures import texture_value
 from .traverse import intersect_scene
-from .vec import dot, madd, max_abs, neg, unit, xform_normal, xform_point, xform_vector
+from .vec import dot, madd, neg, unit, xform_normal, xform_point, xform_vector
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -110,11 +110,7 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         if MEDIA and prim_kind == MEDIUM:
             o = p
         else:
-            # Leave the surface on the side the new ray goes to, by a margin scaled to the
-            # magnitude of the coordinates (their rounding error), so it cannot re-hit itself.
-            eps = SPAWN_OFFSET * (max_abs(p) + max_abs(o))
-            side = eps if dot(new_d, n_front) > 0.0 else -eps
-            o = madd(p, n_front, side)
+            o = spawn_origin(p, o, n_front, new_d)
         d = new_d
     return r, g, b, rays
 

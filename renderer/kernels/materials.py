@@ -1,4 +1,9 @@
-"""Scattering: lambertian, metal, dielectric and isotropic; diffuse lights only emit."""
+"""Scattering: lambertian, metal, dielectric and isotropic; diffuse lights only emit.
+
+The direction of each material is a function of its random inputs (`lambertian_direction`,
+`metal_direction`, `fresnel_dielectric`), so tests can check each on chosen inputs; `scatter`
+draws those inputs and dispatches by kind.
+"""
 
 import math
 
@@ -36,10 +41,54 @@ def reflect(v, n):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def schlick(cosine, ratio):
-    r0 = (1.0 - ratio) / (1.0 + ratio)
-    r0 = r0 * r0
-    return r0 + (1.0 - r0) * (1.0 - cosine) ** 5
+def lambertian_direction(n_front, r):
+    """The books' diffuse direction n + r for a uniform unit vector r: cosine-weighted about n.
+
+    When r (nearly) cancels n the sum has no direction; the normal itself stands in for it.
+    """
+    out = add(n_front, r)
+    if abs(out[0]) < 1e-8 and abs(out[1]) < 1e-8 and abs(out[2]) < 1e-8:
+        out = n_front
+    return out
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def metal_direction(d, n_front, fuzz, r):
+    """The mirror direction of d moved by fuzz * r (r a uniform unit vector), never below the surface.
+
+    A fuzzed direction that points below the surface is mirrored about the tangent plane (its
+    normal component changes sign) rather than absorbed as in the books, so a metal of albedo 1
+    reflects every ray whatever its fuzz: energy is conserved. In the rare case that the result
+    lies in the tangent plane (or is zero) the unfuzzed mirror direction is used.
+    """
+    mirror = unit(reflect(d, n_front))
+    out = madd(mirror, r, fuzz)
+    below = dot(out, n_front)
+    if below < 0.0:
+        out = madd(out, n_front, -2.0 * below)
+    if not dot(out, n_front) > 0.0:
+        out = mirror
+    return out
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def fresnel_dielectric(cos_i, eta):
+    """(reflectance, cosine of the refracted angle) at a smooth dielectric interface.
+
+    `cos_i` in [0, 1] is the cosine of the angle of incidence, `eta` the index on the incident
+    side over the index on the other. The exact unpolarised Fresnel equations, not Schlick's
+    approximation: they give 0 when eta = 1 (no interface, nothing reflects) and 1 under total
+    internal reflection, which is returned with a refracted cosine of 0.
+    """
+    sin2_t = eta * eta * max(0.0, 1.0 - cos_i * cos_i)
+    if sin2_t >= 1.0:
+        return 1.0, 0.0
+    cos_t = math.sqrt(1.0 - sin2_t)
+    # Both denominators are > 0 here: cos_i = cos_t = 0 would need sin2_t = eta^2 >= 1.
+    a = eta * cos_i
+    rs = (a - cos_t) / (a + cos_t)
+    rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    return 0.5 * (rs * rs + rp * rp), cos_t
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -50,27 +99,18 @@ def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
     random dimensions this bounce may use.
     """
     if kind == LAMBERTIAN:
-        out = add(n_front, random_unit_vector(key, dim))
-        if abs(out[0]) < 1e-8 and abs(out[1]) < 1e-8 and abs(out[2]) < 1e-8:
-            out = n_front  # the random vector cancelled the normal
-        return out
+        return lambertian_direction(n_front, random_unit_vector(key, dim))
     if kind == METAL:
-        out = unit(reflect(d, n_front))
-        if fuzz > 0.0:
-            out = madd(out, random_unit_vector(key, dim), fuzz)
-        if dot(out, n_front) <= 0.0:
-            return (0.0, 0.0, 0.0)  # fuzzed below the surface: absorbed
-        return out
+        return metal_direction(d, n_front, fuzz, random_unit_vector(key, dim) if fuzz > 0.0 else (0.0, 0.0, 0.0))
     if DIELECTRICS and kind == DIELECTRIC:
-        ratio = 1.0 / ior if front_face else ior
+        eta = 1.0 / ior if front_face else ior
         ud = unit(d)
-        cos_theta = min(-dot(ud, n_front), 1.0)
-        sin_theta = math.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
-        if ratio * sin_theta > 1.0 or schlick(cos_theta, ratio) > uniform(key, dim + 8):
+        cos_i = min(max(-dot(ud, n_front), 0.0), 1.0)
+        reflectance, cos_t = fresnel_dielectric(cos_i, eta)
+        if uniform(key, dim + 8) < reflectance:
             return reflect(ud, n_front)
-        perp = scale(madd(ud, n_front, cos_theta), ratio)
-        parallel = scale(n_front, -math.sqrt(abs(1.0 - dot(perp, perp))))
-        return add(perp, parallel)
+        # Snell's law in vector form: unit length for a unit ud.
+        return madd(scale(ud, eta), n_front, eta * cos_i - cos_t)
     if kind == ISOTROPIC:
         return random_unit_vector(key, dim)
     return (0.0, 0.0, 0.0)
@@ -79,5 +119,3 @@ def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def is_zero(v):
     return v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0
-
-

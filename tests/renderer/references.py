@@ -4,7 +4,9 @@ A reference keeps, for each 4x4 block of a 48-pixel-wide render with 4096 sample
 the mean and the variance of single samples (float64, so rounding never looks like a change).
 
 Run `python tests/renderer/references.py` to (re)write tests/renderer/references/*.npz after a
-change that is meant to alter images; commit the files with a note on why they changed.
+change that is meant to alter images, or `python tests/renderer/references.py STEM...` (e.g.
+`weekend_glass`) to rewrite only the scenes a change affects; commit the files with a note on
+why they changed.
 """
 
 from __future__ import annotations
@@ -47,11 +49,19 @@ def block_stats(total: np.ndarray, total_sq: np.ndarray, spp: int) -> tuple[np.n
     return mean, var, n
 
 
-def main() -> int:
+def main(stems: list[str]) -> int:
     REF_DIR.mkdir(exist_ok=True)
-    for old in REF_DIR.glob("*.npz"):
-        old.unlink()
-    for path in scene_files():
+    paths = scene_files()
+    if stems:
+        unknown = sorted(set(stems) - {p.stem for p in paths})
+        if unknown:
+            print(f"no scene named {', '.join(unknown)} in {SCENES}", file=sys.stderr)
+            return 1
+        paths = [p for p in paths if p.stem in stems]
+    else:
+        for old in REF_DIR.glob("*.npz"):
+            old.unlink()
+    for path in paths:
         result = render_small(path, REF_SPP, REF_SEED)
         film = result.film
         mean, var, n = block_stats(film.total, film.total_sq, film.samples)
@@ -63,4 +73,4 @@ def main() -> int:
 
 if __name__ == "__main__":
     sys.path.insert(0, str(ROOT))
-    raise SystemExit(main())
+    raise SystemExit(main(sys.argv[1:]))

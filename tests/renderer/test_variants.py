@@ -1,0 +1,161 @@
+"""Kernels specialised to a scene's features: which paths a scene needs, and that leaving the
+others out never changes an image."""
+
+from dataclasses import fields, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from renderer.compile import compile_scene
+from renderer.render import render, with_width
+from renderer.variants import GENERAL, KernelFeatures, features_of, kernels_for
+from scenefmt.effects import summarize
+from scenefmt.validation import load, loads
+
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+FLAGS = [f.name for f in fields(KernelFeatures)]
+
+BASE = """
+camera: {look_from: [0, 1, 6], look_at: [0, 0.5, 0], vfov: 40}
+image: {width: 12, height: 8, samples_per_pixel: 2, max_depth: 6}
+background: {type: solid, color: [0.7, 0.8, 1.0]}
+materials:
+  white: {type: lambertian, albedo: [0.7, 0.7, 0.7]}
+"""
+GROUND = "  - {type: sphere, center: [0, -100, 0], radius: 100, material: white}\n"
+# Each snippet switches exactly one kernel path on when added to BASE; lines under 'shapes:'.
+SWITCH_ON = {
+    "motion": ("", "  - {type: moving_sphere, center0: [0, 0.5, 0], center1: [0, 0.9, 0], radius: 0.5, material: white}\n"),
+    "defocus": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
+    "media": ("media:\n  fog: {type: constant, density: 0.5, albedo: [0.5, 0.5, 0.5]}\n",
+              "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, interior: fog}\n"),
+    "instances": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white, transform: [{scale: [1, 2, 1]}]}\n"),
+    "checker": ("textures:\n  chk: {type: checker, scale: 0.3, even: [0, 0, 0], odd: [1, 1, 1]}\n"
+                "materials:\n  tiles: {type: lambertian, albedo: chk}\n",
+                "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: tiles}\n"),
+    "image": ("textures:\n  earth: {type: image, file: EARTH}\nmaterials:\n  globe: {type: lambertian, albedo: earth}\n",
+              "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: globe}\n"),
+    "noise": ("textures:\n  n: {type: noise, scale: 4}\nmaterials:\n  stone: {type: lambertian, albedo: n}\n",
+              "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: stone}\n"),
+    "emitters": ("materials:\n  lamp: {type: diffuse_light, emit: [3, 3, 3]}\n",
+                 "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: lamp}\n"),
+    "dielectrics": ("materials:\n  glass: {type: dielectric, ior: 1.5}\n",
+                    "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: glass}\n"),
+    "sky": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
+}
+
+
+def scene_text(flag=None):
+    head, shape = SWITCH_ON[flag] if flag else ("", "")
+    text = BASE
+    if flag == "defocus":
+        text = text.replace("vfov: 40}", "vfov: 40, defocus_angle: 2}")
+    if flag == "sky":
+        text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: sky}")
+    if head.startswith("materials:"):
+        text = text.replace("materials:\n", head)
+    elif "\nmaterials:\n" in head:  # a texture section and a material using it
+        tex, mats = head.split("materials:\n")
+        text = text.replace("materials:\n", tex + "materials:\n" + mats)
+    else:
+        text += head
+    return text + "shapes:\n" + GROUND + shape
+
+
+def flat_of(flag=None):
+    text = scene_text(flag).replace("EARTH", str(SCENES / "earthmap.png"))
+    return compile_scene(loads(text).graph)
+
+
+NONE = KernelFeatures(**{name: False for name in FLAGS})
+
+
+def test_a_plain_scene_needs_no_optional_path():
+    assert features_of(flat_of()) == NONE
+
+
+@pytest.mark.parametrize("flag", FLAGS)
+def test_each_element_switches_on_exactly_its_path(flag):
+    assert features_of(flat_of(flag)) == replace(NONE, **{flag: True})
+
+
+def test_a_moving_sphere_needs_no_motion_when_the_shutter_is_closed_or_it_stands_still():
+    closed = scene_text("motion").replace("image:", "shutter: {open: 0.5, close: 0.5}\nimage:")
+    still = scene_text("motion").replace("center1: [0, 0.9, 0]", "center1: [0, 0.5, 0]")
+    assert not features_of(compile_scene(loads(closed).graph)).motion
+    assert not features_of(compile_scene(loads(still).graph)).motion
+
+
+def test_transforms_baked_into_shapes_need_no_instances():
+    baked = scene_text("instances").replace("transform: [{scale: [1, 2, 1]}]", "transform: [{translate: [1, 0, 0]}, {scale: 2}]")
+    assert not features_of(compile_scene(loads(baked).graph)).instances
+
+
+@pytest.mark.parametrize("path", sorted(SCENES.glob("*.yaml")) + sorted(SCENES.glob("*.json")), ids=lambda p: p.stem)
+def test_kernel_features_agree_with_the_scene_effects(path):
+    """What `rt validate` reports from the description matches what the kernel needs."""
+    graph = load(path).graph
+    summary = summarize(graph)
+    on = {e.name: e.on for e in summary.effects}
+    k = features_of(compile_scene(graph))
+    assert k.motion == on["motion blur"]
+    assert k.defocus == on["defocus"]
+    assert k.media == on["media"]
+    assert k.emitters == on["emitters"]
+    assert k.dielectrics == on["dielectrics"]
+    assert (k.checker, k.image, k.noise) == tuple(kind in summary.texture_kinds for kind in ("checker", "image", "noise"))
+    assert k.sky == (summary.background == "sky")
+    # Transforms baked into the shapes need no instancing in the kernel.
+    assert on["instances"] or not k.instances
+
+
+def book_scene_lacking(flag):
+    """A small render of a book scene whose kernel leaves `flag` out (the first such, by name)."""
+    for path in sorted(SCENES.glob("*.yaml")):
+        graph = load(path).graph
+        small = with_width(graph, 12)
+        flat = compile_scene(small)
+        if not getattr(features_of(flat), flag):
+            return small, flat
+    raise AssertionError(f"every book scene uses {flag}")
+
+
+@pytest.mark.parametrize("flag", FLAGS)
+def test_a_specialised_kernel_renders_the_general_kernels_image(flag):
+    """Bit for bit: specialisation never changes an answer, whatever path it leaves out."""
+    graph, flat = book_scene_lacking(flag)
+    special = render(graph, samples=2, max_depth=8, seed=5, flat=flat)
+    general = render(graph, samples=2, max_depth=8, seed=5, flat=flat, features=GENERAL)
+    assert not getattr(special.stats.features, flag)
+    assert general.stats.features == GENERAL
+    assert special.film.total.sum() > 0
+    assert np.array_equal(special.film.total, general.film.total)
+    assert np.array_equal(special.film.total_sq, general.film.total_sq)
+
+
+def test_a_path_left_out_is_really_gone():
+    """The flags are not ignored: a kernel built without media, handed a scene with fog, renders
+    something else than the general kernel (render() never does this: it refuses such a kernel)."""
+    flat = flat_of("media")
+    no_media = replace(features_of(flat), media=False)
+    images = {}
+    for name, feats in (("without", no_media), ("with", GENERAL)):
+        total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
+        rays, bad = np.zeros(8, np.int64), np.zeros(8, np.int64)
+        kernels_for(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, total, total_sq, rays, bad)
+        images[name] = total
+    assert not np.array_equal(images["without"], images["with"])
+
+
+def test_render_refuses_a_kernel_that_lacks_a_path_the_scene_needs():
+    text = scene_text("media").replace("EARTH", "")
+    graph = loads(text).graph
+    with pytest.raises(ValueError, match="lacks paths"):
+        render(graph, samples=1, features=NONE)
+
+
+def test_each_feature_set_has_a_cache_folder_of_its_own():
+    folders = {kernels_for(f).render_pass._cache._cache_path for f in (NONE, replace(NONE, sky=True))}
+    assert len(folders) == 2
+    assert sorted(next(part for part in Path(p).parts if part in ("none", "sky")) for p in folders) == ["none", "sky"]

@@ -115,10 +115,28 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
     return r, g, b, rays
 
 
+@njit(cache=True, error_model="numpy")
+def row_stride(height):
+    """A step through the rows, coprime with their number, near the golden ratio of it.
+
+    Numba hands each thread one contiguous block of the loop's iterations. Rows differ a lot in
+    cost (sky above, a cluttered floor below), so blocks of adjacent rows left one thread idle
+    while the other finished: two threads were only 1.4 times as fast as one. Visiting row
+    (k * stride) mod height at step k spreads every block over the whole image. Each row is
+    still computed alone, so the image does not change.
+    """
+    stride = max(1, int(height * 0.6180339887498949))
+    while math.gcd(stride, height) != 1:
+        stride += 1
+    return stride
+
+
 @njit(parallel=True, cache=True, error_model="numpy")
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, total, total_sq, row_rays, row_bad):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums."""
-    for j in prange(height):
+    stride = row_stride(height)
+    for k in prange(height):
+        j = (k * stride) % height
         stack = np.empty((BVH_STACK, 2))
         tstack = np.empty((BVH_STACK, 2))
         rays = 0

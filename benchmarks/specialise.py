@@ -36,7 +36,7 @@ from renderer.variants import GENERAL, KernelFeatures, features_of  # noqa: E402
 from scenefmt.validation import load, loads  # noqa: E402
 
 SCENES = sorted((ROOT / "scenes").glob("*.yaml")) + sorted((ROOT / "scenes").glob("*.json"))
-BOOK_WIDTH, BOOK_SPP = 160, 8
+BOOK_WIDTH, BOOK_SPP = 320, 16
 BEGIN, END = "<!-- measured by benchmarks/specialise.py -->", "<!-- end of measured -->"
 
 # The effect-pair scenes: a few diffuse and metal spheres under a solid sky (no optional path).

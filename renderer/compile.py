@@ -143,6 +143,17 @@ class _Compiler:
         self.tex_rows[index] = (kind, tuple(color), tuple(param), tuple(child))
         return index
 
+    def reads_uv(self, tex: int) -> bool:
+        """Whether texture row `tex` looks at surface coordinates: an image, or a checker over one.
+
+        The kernels compute a hit's (u, v) only for such materials: on a sphere that takes an
+        arc cosine and an arc tangent, which every other texture would pay for nothing.
+        """
+        kind, _, _, child = self.tex_rows[tex]
+        if kind == L.TEX_IMAGE:
+            return True
+        return kind == L.TEX_CHECKER and any(self.reads_uv(c) for c in child)
+
     def white(self) -> int:
         """The row of a solid white texture, added once."""
         if self.white_row is None:
@@ -401,7 +412,7 @@ class _Compiler:
             inst_f=np.ascontiguousarray(np.concatenate([inst_o2w_arr, inst_w2o_arr], axis=1).reshape(-1, 24)),
             tlas_f=np.ascontiguousarray(np.concatenate([tlas.lo, tlas.hi], axis=1)),
             tlas_i=np.ascontiguousarray(np.stack([tlas_a, tlas.n, tlas.axis], axis=1).astype(np.int32)),
-            mat_i=np.array([(r[0], r[1]) for r in self.mat_rows], np.int32).reshape(n_mat, 2),
+            mat_i=np.array([(r[0], r[1], self.reads_uv(r[1])) for r in self.mat_rows], np.int32).reshape(n_mat, 3),
             mat_f=np.array([r[2] for r in self.mat_rows], np.float64).reshape(n_mat, 2),
             tex_i=np.concatenate([tex_kind.reshape(-1, 1), tex_child], axis=1).astype(np.int32),
             tex_f=np.ascontiguousarray(np.concatenate([tex_color, tex_param], axis=1)),

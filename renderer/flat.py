@@ -25,7 +25,7 @@ class FlatScene(NamedTuple):
     tlas_f: np.ndarray  # (K, 6)
     tlas_i: np.ndarray  # (K, 3)
     # Materials and textures.
-    mat_i: np.ndarray  # (M, 2) int32: kind, texture of albedo or emission
+    mat_i: np.ndarray  # (M, 3) int32: kind, texture of albedo or emission, 1 if that texture reads (u, v)
     mat_f: np.ndarray  # (M, 2) float64: metal fuzz, dielectric ior
     tex_i: np.ndarray  # (T, 3) int32: kind, child textures (checker even, odd)
     tex_f: np.ndarray  # (T, 7) float64: colour, four parameters

@@ -106,8 +106,12 @@ def sphere_uv(n_obj):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def surface(kind, data, i, o, d, t, time):
-    """Hit point, unit outward normal and (u, v) of a hit at distance t."""
+def surface(kind, data, i, o, d, t, time, want_uv):
+    """Hit point, unit outward normal and (u, v) of a hit at distance t.
+
+    (u, v) is (0, 0) unless `want_uv`: only image textures read it, and on a sphere it costs
+    an arc cosine and an arc tangent.
+    """
     p = madd(o, d, t)
     if kind == SPHERE or kind == MOVING_SPHERE:
         c = sphere_center(kind, data, i, time)
@@ -117,6 +121,8 @@ def surface(kind, data, i, o, d, t, time):
         n = scale(rel, 1.0 / dist) if dist > 0.0 else (0.0, 1.0, 0.0)
         # Re-project the point onto the sphere: removes the error of o + t d.
         p = madd(c, n, r)
+        if not want_uv:
+            return p, n, 0.0, 0.0
         k = 4 if kind == SPHERE else 7
         n_obj = (
             data[i, k] * n[0] + data[i, k + 1] * n[1] + data[i, k + 2] * n[2],

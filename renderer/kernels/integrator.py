@@ -7,7 +7,7 @@ from numba import njit, prange
 
 from ..config import BVH_STACK
 from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
-from .features import DEFOCUS, EMITTERS, INSTANCES, MEDIA, MOTION, SKY
+from .features import DEFOCUS, EMITTERS, IMAGE, INSTANCES, MEDIA, MOTION, SKY
 from .geometry import spawn_origin, surface
 from .materials import is_zero, scatter
 from .rng import DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
@@ -73,6 +73,7 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         prim_kind = S.prims_i[prim, 0]
         mat = S.prims_i[prim, 1]
         kind = S.mat_i[mat, 0]
+        want_uv = IMAGE and S.mat_i[mat, 2] != 0
         if MEDIA and prim_kind == MEDIUM:
             # A scattering event inside a medium: no surface, no normal, no (u, v).
             p = madd(o, d, t)
@@ -84,11 +85,11 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
             if INSTANCES and S.inst_i[inst, 1] != 1:
                 oo = xform_point(S.inst_f, inst, 12, o)
                 dd = xform_vector(S.inst_f, inst, 12, d)
-                po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time)
+                po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time, want_uv)
                 p = xform_point(S.inst_f, inst, 0, po)
                 n = unit(xform_normal(S.inst_f, inst, 12, no))
             else:
-                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time)
+                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time, want_uv)
             front = dot(d, n) < 0.0
             n_front = n if front else neg(n)
         tex = S.mat_i[mat, 1]

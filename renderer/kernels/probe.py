@@ -42,7 +42,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
             continue
         oo = xform_point(S.inst_f, inst, 12, o)
         dd = xform_vector(S.inst_f, inst, 12, d)
-        po, no, u, v = surface(S.prims_i[prim, 0], S.prims_f, prim, oo, dd, t, time)
+        po, no, u, v = surface(S.prims_i[prim, 0], S.prims_f, prim, oo, dd, t, time, True)
         p = xform_point(S.inst_f, inst, 0, po)
         nw = unit(xform_normal(S.inst_f, inst, 12, no))
         for q in range(3):

@@ -1,6 +1,7 @@
 """Rendering as a whole: BVH against brute force, determinism, passes, film output."""
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -126,3 +127,36 @@ def test_film_mean_divides_by_samples():
     film.total[:] = 6.0
     film.samples = 3
     assert film.mean().tolist() == [[[2.0] * 3, [2.0] * 3]]
+
+
+def test_only_materials_whose_texture_reads_uv_get_surface_coordinates():
+    # The kernels skip a hit's (u, v) (an arc cosine and an arc tangent on a sphere) unless the
+    # material's texture reads it: an image, or a checker with an image among its squares.
+    earth = Path(__file__).resolve().parents[2] / "scenes" / "earthmap.png"
+    flat = compile_scene(loads(f"""
+camera: {{look_from: [0, 0, 5], look_at: [0, 0, 0]}}
+textures:
+  map: {{type: image, file: {earth}}}
+  over_map: {{type: checker, scale: 1, even: [1, 1, 1], odd: map}}
+  plain: {{type: checker, scale: 1, even: [1, 1, 1], odd: [0, 0, 0]}}
+  noise: {{type: noise, scale: 2}}
+materials:
+  solid: {{type: lambertian, albedo: [0.5, 0.5, 0.5]}}
+  mapped: {{type: lambertian, albedo: map}}
+  checked_map: {{type: metal, albedo: over_map}}
+  checked: {{type: lambertian, albedo: plain}}
+  noisy: {{type: lambertian, albedo: noise}}
+  glass: {{type: dielectric, ior: 1.5}}
+  lamp: {{type: diffuse_light, emit: map}}
+shapes:
+  - {{type: sphere, center: [-3, 0, 0], radius: 0.4, material: solid}}
+  - {{type: sphere, center: [-2, 0, 0], radius: 0.4, material: mapped}}
+  - {{type: sphere, center: [-1, 0, 0], radius: 0.4, material: checked_map}}
+  - {{type: sphere, center: [0, 0, 0], radius: 0.4, material: checked}}
+  - {{type: sphere, center: [1, 0, 0], radius: 0.4, material: noisy}}
+  - {{type: sphere, center: [2, 0, 0], radius: 0.4, material: glass}}
+  - {{type: sphere, center: [3, 0, 0], radius: 0.4, material: lamp}}
+""").graph)
+    reads_uv = {round(float(flat.prims_f[p, 0])): int(flat.mat_i[flat.prims_i[p, 1], 2])
+                for p in range(len(flat.prims_i))}
+    assert reads_uv == {-3: 0, -2: 1, -1: 1, 0: 0, 1: 0, 2: 0, 3: 1}

@@ -44,9 +44,8 @@ def slab(box, k, o, inv, tmin, tmax):
     near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
     # Widen the far end by a few ulps so rounding never drops a box the ray grazes (pbrt's gamma).
     far *= 1.0 + 4e-16
-    if near <= far and far >= tmin and near <= tmax:
-        return max(near, tmin)
-    return INF
+    # Bitwise & rather than `and`: one select instead of three branches the CPU must guess.
+    return max(near, tmin) if (near <= far) & (far >= tmin) & (near <= tmax) else INF
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

@@ -297,6 +297,56 @@ def test_without_the_push_rays_re_hit_their_surface(shape):
     assert (again >= 0).sum() > 10
 
 
+UNPUSHED = {
+    "sphere": lambda s, c: m.Sphere(center=c, radius=0.7 * s, material=MAT),
+    "quad": SURFACES["quad"],
+    "triangle": lambda s, c: m.Triangle(vertices=(c, tuple(x + y for x, y in zip(c, (s, 0.1 * s, 0.2 * s))),
+                                                  tuple(x + y for x, y in zip(c, (0.2 * s, 0.9 * s, -0.3 * s)))),
+                                        material=MAT),
+    "disk": lambda s, c: m.Disk(center=c, normal=(0.3, 1.0, -0.2), radius=0.8 * s, material=MAT),
+}
+
+
+@pytest.mark.parametrize("scale, center", [(1.0, (0.3, -0.2, 0.1)), (1e-3, (1e-3, 2e-3, -1e-3)), (1e3, (1e5, -1e5, 1e5))])
+@pytest.mark.parametrize("shape", list(UNPUSHED))
+def test_rays_starting_exactly_on_a_surface_stay_finite_and_meet_it_only_at_its_rounding(shape, scale, center):
+    """The integrator always pushes a ray's origin off the surface it leaves (the test above).
+    A ray that starts exactly at a computed hit point, with no push, breaks that convention, and
+    still gets a sound answer: a finite distance or a miss, a unit normal, and if it meets the
+    surface it started on at all, only within the rounding of the point it started from
+    (a phantom hit farther away would be a bug); a ray going into a sphere meets its far side."""
+    model = UNPUSHED[shape](scale, center)
+    flat = flat_of(model)
+    rng = np.random.default_rng(31)
+    o, p, normal = surface_hits(flat, scale, center, rng, 3000)
+    assert len(p) > 300
+    r = rng.normal(size=p.shape)
+    r /= np.linalg.norm(r, axis=1)[:, None]
+    # The rounding of a point is a few ulps of its coordinates' magnitude.
+    rounding = 64 * EPS * (np.abs(p).max(axis=1) + scale)
+    for d in (r, -r):
+        t, prim, _, q, n, _ = probe(flat, p, d)
+        assert not np.isnan(t).any()
+        hit = prim >= 0
+        assert np.isfinite(t[hit]).all() and (t[~hit] == math.inf).all()
+        assert np.allclose(np.linalg.norm(n[hit], axis=1), 1.0, atol=1e-12)
+        cos = np.sum(d * normal, axis=1)
+        # A ray that starts a rounding error off the surface meets it again where it has moved
+        # that far across it: at t |cos| within the rounding (t itself is large for grazing rays).
+        own = hit & (t * np.abs(cos) <= rounding)
+        if shape == "sphere":
+            # Every other hit is the far side of the sphere, along the chord 2 r |cos|, for
+            # rays going in; rays going out meet nothing else.
+            far = hit & ~own
+            assert (cos[far] < 0).all()
+            chord = -2 * cos * 0.7 * scale
+            assert np.allclose(t[far], chord[far], rtol=0, atol=1e-9 * scale + 1e-13 * abs(center[0]))
+            assert far.sum() > 100
+        else:
+            # A flat shape is met once: any hit of a ray starting on it is its own point again.
+            assert (own == hit).all(), (t[hit] * np.abs(cos[hit]) / rounding[hit]).max()
+
+
 def surface_error(c, r, o, d, t):
     """| |o + t d - c| - r | / r, evaluated in 60-digit decimal arithmetic."""
     getcontext().prec = 60

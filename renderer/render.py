@@ -64,7 +64,7 @@ def with_width(graph: SceneGraph, width: int) -> SceneGraph:
 def kernels_cached(features: KernelFeatures = GENERAL) -> bool:
     """Whether the render kernel for `features` is compiled in this process or waiting in the disk cache.
 
-    False means the next render starts by compiling it (a minute or so, once per installation
+    False means the next render starts by compiling it (10 to 20 seconds, once per installation
     and feature set).
     """
     render_pass = kernels_for(features).render_pass

@@ -280,7 +280,7 @@ def render(
         typer.echo(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
     if not kernels_cached(features):
         typer.echo(
-            f"compiling the renderer for this feature set ({features.tag}): about a minute on 2 cores, once; "
+            f"compiling the renderer for this feature set ({features.tag}): 10 to 20 seconds on 2 cores, once; "
             f"cached in {numba.config.CACHE_DIR}",
             err=True,
         )

@@ -231,6 +231,17 @@ def surface_hits(flat, scale, center, rng, n):
     return o[hit], p[hit], normal[hit]
 
 
+def hits_and_directions(model, scale, center, seed):
+    """The flat scene of one shape, 3000 random rays' hits on it (origins, points, normals) and
+    a random unit direction for each hit."""
+    flat = flat_of(model)
+    rng = np.random.default_rng(seed)
+    o, p, normal = surface_hits(flat, scale, center, rng, 3000)
+    assert len(p) > 300
+    r = rng.normal(size=p.shape)
+    return flat, o, p, normal, r / np.linalg.norm(r, axis=1)[:, None]
+
+
 def ellipsoid_exit(shape, start, d):
     """Distance along unit d from a point inside a (transformed) sphere to its surface, in numpy."""
     if isinstance(shape, m.Instance):
@@ -254,12 +265,7 @@ def test_rays_leaving_a_surface_do_not_hit_it_again(shape, scale, center):
     surface never meets it again, and a ray going into a closed shape meets its far side, not
     the near side at t ~ 0. The push is relative, so all of this holds at every scale and offset."""
     model = SURFACES[shape](scale, center)
-    flat = flat_of(model)
-    rng = np.random.default_rng(23)
-    o, p, normal = surface_hits(flat, scale, center, rng, 3000)
-    assert len(p) > 300
-    r = rng.normal(size=p.shape)
-    r /= np.linalg.norm(r, axis=1)[:, None]
+    flat, o, p, normal, r = hits_and_directions(model, scale, center, 23)
     outward = r * np.sign(np.sum(r * normal, axis=1))[:, None]
     leaving = r if shape == "quad" else outward  # a quad is left on either side
     start = _spawn_all(p, o, normal, leaving, True)
@@ -315,13 +321,7 @@ def test_rays_starting_exactly_on_a_surface_stay_finite_and_meet_it_only_at_its_
     still gets a sound answer: a finite distance or a miss, a unit normal, and if it meets the
     surface it started on at all, only within the rounding of the point it started from
     (a phantom hit farther away would be a bug); a ray going into a sphere meets its far side."""
-    model = UNPUSHED[shape](scale, center)
-    flat = flat_of(model)
-    rng = np.random.default_rng(31)
-    o, p, normal = surface_hits(flat, scale, center, rng, 3000)
-    assert len(p) > 300
-    r = rng.normal(size=p.shape)
-    r /= np.linalg.norm(r, axis=1)[:, None]
+    flat, o, p, normal, r = hits_and_directions(UNPUSHED[shape](scale, center), scale, center, 31)
     # The rounding of a point is a few ulps of its coordinates' magnitude.
     rounding = 64 * EPS * (np.abs(p).max(axis=1) + scale)
     for d in (r, -r):

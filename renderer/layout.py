@@ -20,7 +20,9 @@ TRIANGLE = 3
 DISK = 4
 MEDIUM = 5
 
-# Materials: kind, texture index, and up to two parameters (metal fuzz, dielectric ior).
+# Materials: kind, texture index, whether that texture reads (u, v) (an image, or a checker
+# over one: the kernels compute (u, v) only then), and up to two parameters (metal fuzz,
+# dielectric ior).
 LAMBERTIAN = 0
 METAL = 1
 DIELECTRIC = 2

@@ -73,7 +73,6 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         prim_kind = S.prims_i[prim, 0]
         mat = S.prims_i[prim, 1]
         kind = S.mat_i[mat, 0]
-        want_uv = IMAGE and S.mat_i[mat, 2] != 0
         if MEDIA and prim_kind == MEDIUM:
             # A scattering event inside a medium: no surface, no normal, no (u, v).
             p = madd(o, d, t)
@@ -82,6 +81,8 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
             front = True
             n_front = n
         else:
+            # (u, v) only where the material's texture reads it (an image): see surface().
+            want_uv = IMAGE and S.mat_i[mat, 2] != 0
             if INSTANCES and S.inst_i[inst, 1] != 1:
                 oo = xform_point(S.inst_f, inst, 12, o)
                 dd = xform_vector(S.inst_f, inst, 12, d)

@@ -304,7 +304,7 @@ def test_without_the_push_rays_re_hit_their_surface(shape):
 
 
 UNPUSHED = {
-    "sphere": lambda s, c: m.Sphere(center=c, radius=0.7 * s, material=MAT),
+    "sphere": SURFACES["sphere"],
     "quad": SURFACES["quad"],
     "triangle": lambda s, c: m.Triangle(vertices=(c, tuple(x + y for x, y in zip(c, (s, 0.1 * s, 0.2 * s))),
                                                   tuple(x + y for x, y in zip(c, (0.2 * s, 0.9 * s, -0.3 * s)))),
@@ -325,7 +325,7 @@ def test_rays_starting_exactly_on_a_surface_stay_finite_and_meet_it_only_at_its_
     # The rounding of a point is a few ulps of its coordinates' magnitude.
     rounding = 64 * EPS * (np.abs(p).max(axis=1) + scale)
     for d in (r, -r):
-        t, prim, _, q, n, _ = probe(flat, p, d)
+        t, prim, _, _, n, _ = probe(flat, p, d)
         assert not np.isnan(t).any()
         hit = prim >= 0
         assert np.isfinite(t[hit]).all() and (t[~hit] == math.inf).all()
@@ -339,7 +339,7 @@ def test_rays_starting_exactly_on_a_surface_stay_finite_and_meet_it_only_at_its_
             # rays going in; rays going out meet nothing else.
             far = hit & ~own
             assert (cos[far] < 0).all()
-            chord = -2 * cos * 0.7 * scale
+            chord = -2 * cos * 0.7 * scale  # SURFACES' sphere has radius 0.7 * scale
             assert np.allclose(t[far], chord[far], rtol=0, atol=1e-9 * scale + 1e-13 * abs(center[0]))
             assert far.sum() > 100
         else:

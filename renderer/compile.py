@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.scene import SkyBackground
 
 from . import layout as L
-from .bvh import build_bvh, single_leaf
+from .bvh import WIDTH, build_bvh, single_leaf, widen
 from .flat import FlatScene
 from .textures import load_image_texels, perlin_tables
 
@@ -322,42 +322,42 @@ class _Compiler:
     def run(self) -> FlatScene:
         self.place(self.graph.root, affine.IDENTITY)
         prim_kind, prim_rows, prim_mat = [], [], []
-        node_parts = {k: [] for k in ("lo", "hi", "a", "n", "axis")}
+        node_box, node_child = [], []
         node_count = 0
-        blas_root = []
+        blas_root, blas_lo, blas_hi = [], [], []
         for tables in self.blas:
             blas_root.append(node_count)
             if not tables.kind:
+                blas_lo.append(np.full(3, np.inf))
+                blas_hi.append(np.full(3, -np.inf))
                 continue
             tree = self.build_tree(np.array(tables.lo), np.array(tables.hi))
+            blas_lo.append(tree.lo[0])
+            blas_hi.append(tree.hi[0])
             base = len(prim_kind)
             for j in tree.order:
                 prim_kind.append(tables.kind[j])
                 prim_rows.append(tables.rows[j])
                 prim_mat.append(tables.mat[j])
-            leaf = tree.n > 0
-            a = tree.a.astype(np.int64)
-            a = np.where(leaf, a + base, a + node_count)
-            node_parts["lo"].append(tree.lo)
-            node_parts["hi"].append(tree.hi)
-            node_parts["a"].append(a.astype(np.int32))
-            node_parts["n"].append(tree.n)
-            node_parts["axis"].append(tree.axis)
-            node_count += len(tree.n)
+            wide = widen(tree)
+            child = wide.child.copy()
+            # Offsets become absolute: leaves into the primitive table, interior slots into the nodes.
+            codes, counts = child[:, :WIDTH], child[:, WIDTH:]
+            codes += np.where(counts > 0, base, np.where(counts == 0, node_count, 0))
+            node_box.append(wide.box)
+            node_child.append(child)
+            node_count += len(child)
 
         def cat(parts, shape, dtype):
             return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
 
-        node_lo = cat(node_parts["lo"], (0, 3), np.float64)
-        node_hi = cat(node_parts["hi"], (0, 3), np.float64)
         # Instances: world bounds from the 8 corners of each tree's root box.
         inst_root, inst_ident, inst_o2w, inst_w2o, ilo, ihi = [], [], [], [], [], []
         for blas, m in self.instances:
             root = blas_root[blas]
             o2w = np.array(m, dtype=np.float64).reshape(12)
-            corners = np.array([[x, y, z] for x in (node_lo[root, 0], node_hi[root, 0])
-                                for y in (node_lo[root, 1], node_hi[root, 1])
-                                for z in (node_lo[root, 2], node_hi[root, 2])])
+            lo, hi = blas_lo[blas], blas_hi[blas]
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
             world = corners @ _linear(m).T + o2w.reshape(3, 4)[:, 3]
             inst_root.append(root)
             inst_ident.append(1 if affine.is_identity(m) else 0)
@@ -390,9 +390,6 @@ class _Compiler:
         else:
             noise_perm = np.zeros((1, 3, 256), np.int32)
             noise_vec = np.zeros((1, 256, 3), np.float64)
-        node_a = cat(node_parts["a"], (0,), np.int32)
-        node_n = cat(node_parts["n"], (0,), np.int32)
-        node_axis = cat(node_parts["axis"], (0,), np.int32)
         inst_o2w_arr = pick(inst_o2w, (-1, 12), np.float64)
         inst_w2o_arr = pick(inst_w2o, (-1, 12), np.float64)
         return FlatScene(
@@ -400,8 +397,8 @@ class _Compiler:
             prims_f=np.array(prim_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
             bnd_i=np.array(self.bnd_kind, np.int32),
             bnd_f=np.array(self.bnd_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
-            nodes_f=np.ascontiguousarray(np.concatenate([node_lo, node_hi], axis=1)),
-            nodes_i=np.ascontiguousarray(np.stack([node_a, node_n, node_axis], axis=1).reshape(-1, 3)),
+            nodes_f=np.ascontiguousarray(cat(node_box, (0, 6 * WIDTH), np.float64)),
+            nodes_i=np.ascontiguousarray(cat(node_child, (0, 2 * WIDTH), np.int64)),
             inst_i=np.ascontiguousarray(
                 np.stack(
                     [pick(inst_root, (-1,), np.int32), pick(inst_ident, (-1,), np.int32),

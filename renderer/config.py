@@ -4,6 +4,9 @@
 BVH_BINS = 16  # SAH bins per split
 BVH_MAX_LEAF = 4  # most primitives in a leaf
 BVH_STACK = 64  # traversal stack depth (a binned SAH tree over 10^7 primitives stays far below)
+# A four-wide tree is no deeper than the binary one it comes from, and each level leaves at most
+# three of a node's children on the stack while visiting the fourth.
+BVH_WIDE_STACK = 3 * BVH_STACK + 4
 
 # Ray origins of scattered rays are pushed off the surface by this fraction of the magnitude of
 # the coordinates involved: float64 rounding of a hit point is ~1e-16 of that magnitude, so

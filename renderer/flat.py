@@ -16,14 +16,16 @@ class FlatScene(NamedTuple):
     # Boundary rows of media (not in any tree), same row layout as primitives.
     bnd_i: np.ndarray  # (B,) int32 kind
     bnd_f: np.ndarray  # (B, 16) float64
-    # Nodes of every bottom-level tree; child and leaf offsets are absolute.
-    nodes_f: np.ndarray  # (N, 6) float64: box lo, hi
-    nodes_i: np.ndarray  # (N, 3) int32: second child or first primitive, primitive count (0: interior), axis
+    # Nodes of every bottom-level tree, four-wide (bvh.WideBvh); child and leaf offsets are absolute.
+    nodes_f: np.ndarray  # (N, 24) float64: the four child boxes, by coordinate (lo x of 0..3, lo y, ... hi z)
+    nodes_i: np.ndarray  # (N, 8) int64: per child, node or first primitive; then per child, primitive count
+    #                      (0: an interior node, -1: an empty slot, whose box is nan)
     # Instances (the top level) and the tree over them (its leaves index instances directly).
     inst_i: np.ndarray  # (I, 3) int32: root node of the instance's tree, 1 if untransformed, serial number
     inst_f: np.ndarray  # (I, 24) float64: world_from_object then object_from_world, 3x4 row-major
-    tlas_f: np.ndarray  # (K, 6)
-    tlas_i: np.ndarray  # (K, 3)
+    # Binary: node k's first child is k + 1, its second child the value in column 0.
+    tlas_f: np.ndarray  # (K, 6) float64: box lo, hi
+    tlas_i: np.ndarray  # (K, 3) int32: second child or first instance, instance count (0: interior), split axis
     # Materials and textures.
     mat_i: np.ndarray  # (M, 3) int32: kind, texture of albedo or emission, 1 if that texture reads (u, v)
     mat_f: np.ndarray  # (M, 2) float64: metal fuzz, dielectric ior

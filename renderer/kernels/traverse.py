@@ -1,7 +1,8 @@
 """Closest-hit search: a top-level tree over instances, each a bottom-level tree of primitives.
 
-Both levels use the same flattened layout and an explicit stack, visiting the nearer child
-first. A constant medium is a primitive whose hit distance is drawn from its free-flight
+The bottom-level trees are four wide (see bvh.WideBvh): a step tests a node's four child boxes
+at once and visits them nearest first. The top level, over a scene's few instances, is a
+binary tree visiting the child nearer along its split axis first. A constant medium is a primitive whose hit distance is drawn from its free-flight
 distribution, with a random number keyed by (bounce, instance, primitive) so the answer does
 not depend on the order nodes are visited in.
 """
@@ -14,6 +15,7 @@ from ..layout import MEDIUM, MOVING_SPHERE, SPHERE
 from .features import INSTANCES, MEDIA
 from .geometry import hit_planar, hit_primitive, sphere_center
 from .rng import DIM_MEDIUM, mix64, uniform
+from .simd import slab4
 from .vec import dot, length, sub, xform_point, xform_vector
 
 INF = math.inf
@@ -136,22 +138,54 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
-    """Closest primitive of the tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
+def push_sorted(stack_t, stack_i, base, sp, t, code, count):
+    """Push (t, code, count) onto the stack's entries base..sp-1, kept in order of falling t,
+    and return the new size. A node's children are pushed this way, so the nearest is popped first."""
+    j = sp
+    while j > base and stack_t[j - 1] < t:
+        stack_t[j] = stack_t[j - 1]
+        stack_i[j, 0], stack_i[j, 1] = stack_i[j - 1, 0], stack_i[j - 1, 1]
+        j -= 1
+    stack_t[j] = t
+    stack_i[j, 0], stack_i[j, 1] = code, count
+    return sp + 1
 
-    `stack` rows hold (node, entry distance): a popped node is skipped without a second box
-    test when a nearer hit has been found since it was pushed.
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
+    """Closest primitive of the wide tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
+
+    Each step tests the four child boxes of a node at once (simd.slab4) and pushes those the
+    ray meets, nearest on top. `stack` is a pair of arrays: entry distances, and (node or first
+    primitive, primitive count). A popped entry is skipped without another test when a nearer
+    hit has been found since it was pushed.
     """
+    stack_t, stack_i = stack
     inv = inverse_direction(d)
-    neg0, neg1, neg2 = d[0] < 0.0, d[1] < 0.0, d[2] < 0.0
     best_t, best_prim = tmax, -1
     sp = 0
     node = root
     while True:
-        count = nodes_i[node, 1]
-        if count > 0:
-            first = nodes_i[node, 0]
-            for prim in range(first, first + count):
+        t0, t1, t2, t3 = slab4(nodes_f, node, o, inv, tmin, best_t)
+        base = sp
+        if t0 < INF:
+            sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[node, 0], nodes_i[node, 4])
+        if t1 < INF:
+            sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[node, 1], nodes_i[node, 5])
+        if t2 < INF:
+            sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[node, 2], nodes_i[node, 6])
+        if t3 < INF:
+            sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[node, 3], nodes_i[node, 7])
+        node = -1
+        while sp > 0:
+            sp -= 1
+            if stack_t[sp] > best_t:
+                continue
+            code, count = stack_i[sp, 0], stack_i[sp, 1]
+            if count == 0:
+                node = code
+                break
+            for prim in range(code, code + count):
                 kind = prims_i[prim, 0]
                 if MEDIA and kind == MEDIUM:
                     t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
@@ -159,12 +193,6 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                     t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
                 if t < best_t:
                     best_t, best_prim = t, prim
-        else:
-            child, sp = descend(nodes_f, nodes_i, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp)
-            if child >= 0:
-                node = child
-                continue
-        node, sp = pop(stack, sp, best_t)
         if node < 0:
             break
     return best_t, best_prim
@@ -245,15 +273,16 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
 
 @njit(cache=True, error_model="numpy")
 def tree_prim_range(nodes_i, root):
-    """The rows [lo, hi) of the primitives of the tree at `root` (they are contiguous)."""
+    """The rows [lo, hi) of the primitives of the wide tree at `root` (they are contiguous)."""
     lo, hi = 1 << 62, -1
     stack = [root]
     while len(stack) > 0:
         node = stack.pop()
-        if nodes_i[node, 1] > 0:
-            lo = min(lo, nodes_i[node, 0])
-            hi = max(hi, nodes_i[node, 0] + nodes_i[node, 1])
-        else:
-            stack.append(node + 1)
-            stack.append(nodes_i[node, 0])
-    return lo, hi
+        for c in range(4):
+            code, count = nodes_i[node, c], nodes_i[node, 4 + c]
+            if count > 0:
+                lo = min(lo, code)
+                hi = max(hi, code + count)
+            elif count == 0:
+                stack.append(code)
+    return lo, max(hi, lo)

@@ -58,19 +58,35 @@ def _inverse_affine(m: np.ndarray) -> np.ndarray:
     return np.linalg.inv(full)[:3, :].reshape(12)
 
 
-def _planar_row(q, u, v, flip: bool) -> np.ndarray:
-    row = np.zeros(L.PRIM_WIDTH)
-    n = np.cross(u, v)
-    nn = float(n @ n)
-    unit = n / math.sqrt(nn)
+def _cross(a, b) -> tuple[float, float, float]:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _mul(lin, v) -> tuple[float, float, float]:
+    """lin @ v for a 3x3 matrix given as rows."""
+    return tuple(_dot(row, v) for row in lin)  # type: ignore[return-value]
+
+
+# Planar rows are computed on Python floats, not numpy arrays: the final scene has 2400 box
+# faces, and numpy's per-call cost on 3-vectors made flattening it take 0.3 s instead of 0.05.
+def _planar_row(q, u, v, flip: bool) -> list[float]:
+    n = _cross(u, v)
+    nn = _dot(n, n)
+    length = math.sqrt(nn)
+    unit = (n[0] / length, n[1] / length, n[2] / length)
     if flip:
-        unit = -unit  # a mirroring transform keeps the front face where it was geometrically
-    w = n / nn
+        unit = (-unit[0], -unit[1], -unit[2])  # a mirroring transform keeps the front face where it was geometrically
+    w = (n[0] / nn, n[1] / nn, n[2] / nn)
+    row = [0.0] * L.PRIM_WIDTH
     row[0:3], row[3:6] = q, unit
-    row[6] = float(unit @ q)
+    row[6] = _dot(unit, q) + 0.0  # + 0.0: a plane through the origin gets offset +0, never -0
     # alpha = w . (p x v) = p . (v x w); beta = w . (u x p) = p . (w x u)
-    row[7:10] = np.cross(v, w)
-    row[10:13] = np.cross(w, u)
+    row[7:10] = _cross(v, w)
+    row[10:13] = _cross(w, u)
     return row
 
 
@@ -106,6 +122,7 @@ class _Compiler:
         self.media_count = 0
         # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
         self.own_instance: dict[int, int] = {}
+        self.similarity_of: dict[tuple, tuple[np.ndarray, Optional[float]]] = {}
 
     # --- textures and materials ----------------------------------------------------------------
 
@@ -186,10 +203,18 @@ class _Compiler:
 
     # --- primitives ----------------------------------------------------------------------------
 
+    def similarity(self, m) -> tuple[np.ndarray, Optional[float]]:
+        """(linear part, similarity scale or None) of m, cached: a scene's many spheres share a
+        few transforms, and the check costs tens of microseconds in numpy."""
+        known = self.similarity_of.get(m)
+        if known is None:
+            lin = _linear(m)
+            known = self.similarity_of[m] = (lin, _similarity_scale(lin))
+        return known
+
     def sphere_row(self, shape: ShapeNode, m) -> Optional[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
         """(kind, row, lo, hi) of a sphere baked through m, or None if m is not a similarity."""
-        lin = _linear(m)
-        s = _similarity_scale(lin)
+        lin, s = self.similarity(m)
         if s is None:
             return None
         rot = (lin / s).T  # object_from_world rotation for the uv frame
@@ -212,16 +237,18 @@ class _Compiler:
             c1 = c0
         return L.MOVING_SPHERE, row, np.minimum(c0, c1) - r, np.maximum(c0, c1) + r
 
-    def planar_rows(self, shape: ShapeNode, m) -> list[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
-        lin = _linear(m)
-        flip = np.linalg.det(lin) < 0
+    def planar_rows(self, shape: ShapeNode, m) -> list[tuple[int, list, tuple, tuple]]:
+        lin = tuple(row[:3] for row in m)
+        flip = np.linalg.det(_linear(m)) < 0
         model = shape.model
         out = []
 
         def add(kind, q, u, v, corners):
-            q2, u2, v2 = _apply(m, q), lin @ np.asarray(u, float), lin @ np.asarray(v, float)
-            pts = np.array([q2 + a * u2 + b * v2 for a, b in corners])
-            out.append((kind, _planar_row(q2, u2, v2, flip), pts.min(axis=0), pts.max(axis=0)))
+            q2, u2, v2 = affine.apply_point(m, q), _mul(lin, u), _mul(lin, v)
+            pts = [tuple(q2[k] + a * u2[k] + b * v2[k] for k in range(3)) for a, b in corners]
+            lo = tuple(min(p[k] for p in pts) for k in range(3))
+            hi = tuple(max(p[k] for p in pts) for k in range(3))
+            out.append((kind, _planar_row(q2, u2, v2, flip), lo, hi))
 
         if model.type == "quad":
             add(L.QUAD, model.q, model.u, model.v, ((0, 0), (1, 0), (0, 1), (1, 1)))
@@ -236,7 +263,7 @@ class _Compiler:
             a /= np.linalg.norm(a)
             b = np.cross(n, a)  # a x b = n
             r = model.radius
-            q2, u2, v2 = _apply(m, model.center), lin @ (a * r), lin @ (b * r)
+            q2, u2, v2 = _apply(m, model.center), _linear(m) @ (a * r), _linear(m) @ (b * r)
             ext = np.sqrt(u2 * u2 + v2 * v2)
             out.append((L.DISK, _planar_row(q2, u2, v2, flip), q2 - ext, q2 + ext))
         else:  # box

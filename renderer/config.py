@@ -7,6 +7,8 @@ BVH_STACK = 64  # traversal stack depth (a binned SAH tree over 10^7 primitives 
 # A four-wide tree is no deeper than the binary one it comes from, and each level leaves at most
 # three of a node's children on the stack while visiting the fourth.
 BVH_WIDE_STACK = 3 * BVH_STACK + 4
+# Media a ray meets in one tree that are set aside to test after its surfaces (more are tested at once).
+MEDIA_DEFERRED = 8
 
 # Ray origins of scattered rays are pushed off the surface by this fraction of the magnitude of
 # the coordinates involved: float64 rounding of a hit point is ~1e-16 of that magnitude, so

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from dataclasses import dataclass
@@ -115,6 +116,29 @@ class NoiseEstimate:
     error: np.ndarray  # (h, w) standard error of each pixel's mean, averaged over channels
 
 
+def relative_noise(film: Film) -> float:
+    """The relative RMS noise of `estimate_noise`, computed without its per-pixel map.
+
+    The progress display asks for it about once a second while the render threads wait; with
+    two passes over the film and one temporary array it takes a few milliseconds on a 600x600
+    image, where the whole estimate took 30 ms.
+    """
+    n = film.samples
+    if n < 2:
+        return float("inf")
+    # Sum over pixels of the unbiased sample variance (clamped at 0 against rounding), / n for
+    # the variance of each mean, against the sum of squared means.
+    work = np.square(film.total)
+    signal = float(work.sum()) / (n * n)
+    work /= n
+    np.subtract(film.total_sq, work, out=work)
+    np.maximum(work, 0.0, out=work)
+    se2_sum = float(work.sum()) / (n - 1) / n
+    if signal > 0:
+        return math.sqrt(se2_sum / signal)
+    return 0.0 if se2_sum == 0 else float("inf")
+
+
 def estimate_noise(film: Film) -> NoiseEstimate:
     """The standard error of each pixel's mean from the sums of samples and of their squares."""
     n = film.samples
@@ -125,8 +149,7 @@ def estimate_noise(film: Film) -> NoiseEstimate:
     # Unbiased sample variance, then the variance of the mean of n samples.
     var = np.maximum(film.total_sq - film.total * mean, 0.0) / (n - 1)
     se2 = var / n
-    signal = float(np.sum(mean * mean))
-    relative = float(np.sqrt(se2.sum() / signal)) if signal > 0 else (0.0 if se2.sum() == 0 else float("inf"))
+    relative = relative_noise(film)
     error = np.sqrt(se2).mean(axis=2)
     y, x = np.unravel_index(int(np.argmax(error)), error.shape)
     value = float(mean[y, x].mean())

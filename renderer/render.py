@@ -18,7 +18,7 @@ import numpy as np
 from scenefmt.graph import SceneGraph
 
 from .compile import compile_scene
-from .film import Film, estimate_noise
+from .film import Film, relative_noise
 from .flat import FlatScene
 from .variants import GENERAL, KernelFeatures, features_of, kernels_for
 
@@ -161,7 +161,7 @@ def render(
         # progress display at most once a second.
         now = time.perf_counter()
         if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
-            stats.noise = estimate_noise(film).relative_rms
+            stats.noise = relative_noise(film)
             last_noise = now
         if progress is not None:
             progress(stats)
@@ -173,5 +173,5 @@ def render(
         per_sample = dt / n if n else dt
         batch = max(1, min(4 * n, int(pass_seconds / per_sample) if per_sample > 0 else 4 * n))
     stats.seconds = time.perf_counter() - render_start
-    stats.noise = estimate_noise(film).relative_rms
+    stats.noise = relative_noise(film)
     return RenderResult(film, stats)

@@ -5,7 +5,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..config import BVH_STACK, BVH_WIDE_STACK
+from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
 from .features import DEFOCUS, EMITTERS, IMAGE, INSTANCES, MEDIA, MOTION, SKY
 from .geometry import spawn_origin, surface
@@ -139,7 +139,7 @@ def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, t
     stride = row_stride(height)
     for k in prange(height):
         j = (k * stride) % height
-        stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64))
+        stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
         tstack = np.empty((BVH_STACK, 2))
         rays = 0
         bad = 0

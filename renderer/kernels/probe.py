@@ -5,7 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import BVH_STACK, BVH_WIDE_STACK
+from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..layout import MEDIUM
 from .geometry import surface
 from .traverse import intersect_brute_force, intersect_scene
@@ -22,7 +22,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
     p_out = np.zeros((n, 3))
     n_out = np.zeros((n, 3))
     uv_out = np.zeros((n, 2))
-    stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64))
+    stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
     tstack = np.empty((BVH_STACK, 2))
     key = np.uint64(12345)
     for k in range(n):

@@ -118,23 +118,27 @@ def medium_span(bnd_i, bnd_f, start, count, o, d, time):
 def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
     # `inst` is the instance's serial number.
     """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
+    # Keyed by serial numbers, not table rows: the BVH reorders rows, and must not change the image.
+    medium = uint64(prims_f[prim, 3])
+    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
+    u = uniform(key, dim)
+    speed = length(d)
+    # The free-flight distance -ln(1 - u) / density is at least u / density. When that already
+    # reaches past where the ray can be inside the medium, it passes through, and neither the
+    # boundary nor the logarithm is needed. The answer is the one they would give. Two bounds:
+    # the ray's whole extent (tmin, tmax), known before the boundary is intersected (the
+    # traversal tests media last, so tmax is then the nearest surface), and the part inside.
+    reach = u * -prims_f[prim, 0]
+    if reach > (tmax - max(tmin, 0.0)) * speed:
+        return INF
     start, count = int(prims_f[prim, 1]), int(prims_f[prim, 2])
     enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
     t0, t1 = max(enter, tmin), min(leave, tmax)
     if not t0 < t1:
         return INF
     t0 = max(t0, 0.0)
-    speed = length(d)
     inside = (t1 - t0) * speed
-    # Keyed by serial numbers, not table rows: the BVH reorders rows, and must not change the image.
-    medium = uint64(prims_f[prim, 3])
-    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
-    u = uniform(key, dim)
-    # The free-flight distance -ln(1 - u) / density is at least u / density. When that already
-    # reaches past the far side, the ray passes through and the logarithm is not needed: in a
-    # thin medium (the final scene's mist) that is almost every ray: the final scene renders 5%
-    # faster, with the same image. The answer is the one the logarithm would give.
-    if u * -prims_f[prim, 0] > inside:
+    if reach > inside:
         return INF
     # -ln(1 - u) / density with u in [0, 1): finite, never log(0).
     distance = prims_f[prim, 0] * math.log1p(-u)
@@ -162,11 +166,13 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     """Closest primitive of the wide tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
 
     Each step tests the four child boxes of a node at once (simd.slab4) and pushes those the
-    ray meets, nearest on top. `stack` is a pair of arrays: entry distances, and (node or first
-    primitive, primitive count). A popped entry is skipped without another test when a nearer
-    hit has been found since it was pushed.
+    ray meets, nearest on top. `stack` holds three arrays: entry distances, (node or first
+    primitive, primitive count), and room for the media met, which are tested after the
+    surfaces. A popped entry is skipped without another test when a nearer hit has been found
+    since it was pushed.
     """
-    stack_t, stack_i = stack
+    stack_t, stack_i, deferred = stack
+    n_deferred = 0
     inv = inverse_direction(d)
     best_t, best_prim = tmax, -1
     sp = 0
@@ -194,6 +200,10 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
             for prim in range(code, code + count):
                 kind = prims_i[prim, 0]
                 if MEDIA and kind == MEDIUM:
+                    if n_deferred < deferred.shape[0]:
+                        deferred[n_deferred] = prim
+                        n_deferred += 1
+                        continue
                     t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
                 else:
                     t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
@@ -201,6 +211,14 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                     best_t, best_prim = t, prim
         if node < 0:
             break
+    if MEDIA:
+        # Media met on the way are tested last, against the nearest surface: most rays through a
+        # thin medium then pass it on a bound alone (see medium_hit).
+        for k in range(n_deferred):
+            prim = deferred[k]
+            t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
+            if t < best_t:
+                best_t, best_prim = t, prim
     return best_t, best_prim
 
 

@@ -79,7 +79,8 @@ def _planar_row(q, u, v, flip: bool) -> list[float]:
     length = math.sqrt(nn)
     unit = (n[0] / length, n[1] / length, n[2] / length)
     if flip:
-        unit = (-unit[0], -unit[1], -unit[2])  # a mirroring transform keeps the front face where it was geometrically
+        # A mirroring transform keeps the front face where it was geometrically.
+        unit = (-unit[0], -unit[1], -unit[2])
     w = (n[0] / nn, n[1] / nn, n[2] / nn)
     row = [0.0] * L.PRIM_WIDTH
     row[0:3], row[3:6] = q, unit

@@ -2,9 +2,10 @@
 
 The bottom-level trees are four wide (see bvh.WideBvh): a step tests a node's four child boxes
 at once and visits them nearest first. The top level, over a scene's few instances, is a
-binary tree visiting the child nearer along its split axis first. A constant medium is a primitive whose hit distance is drawn from its free-flight
-distribution, with a random number keyed by (bounce, instance, primitive) so the answer does
-not depend on the order nodes are visited in.
+binary tree visiting the child nearer along its split axis first. A constant medium is a
+primitive whose hit distance is drawn from its free-flight distribution, with a random number
+keyed by (bounce, instance, primitive) so the answer does not depend on the order nodes are
+visited in; media are tested after the surfaces of a tree.
 """
 
 import math

@@ -7,7 +7,7 @@ in about a second.
 
 The bottom-level trees are then widened to four children per node (`widen`): a traversal
 step tests four boxes with one vector computation and the tree has about half as many levels,
-which made whole renders 1.3 times as fast (docs/performance.md).
+which made whole renders 1.3 times as fast (docs/speed.md).
 """
 
 from typing import NamedTuple
@@ -238,17 +238,21 @@ def _widen(lo, hi, a, n):
     top = 1
     count = 1
     kids = np.empty(WIDTH, np.int64)
+    # A tree of one node is a leaf, possibly empty (n = 0); in a larger tree n = 0 marks interior nodes.
+    lone_leaf = m == 1
     while top > 0:
         top -= 1
         b, w = work[top, 0], work[top, 1]
         # Start from b's children (or b itself, a lone leaf at the root) and open the interior
         # child of largest surface area until there are four: large boxes are the ones rays meet.
-        if n[b] == 0:
-            kids[0], kids[1] = b + 1, a[b]
-            k = 2
-        else:
+        if lone_leaf:
+            if n[b] == 0:
+                break  # an empty tree: every slot stays empty
             kids[0] = b
             k = 1
+        else:
+            kids[0], kids[1] = b + 1, a[b]
+            k = 2
         while k < WIDTH:
             best, best_area = -1, -1.0
             for s in range(k):
@@ -282,11 +286,5 @@ def _widen(lo, hi, a, n):
 
 def widen(tree: Bvh) -> WideBvh:
     """The four-wide form of a binary tree (same leaves, same primitive order)."""
-    if len(tree.n) == 1 and tree.n[0] == 0:
-        # An empty tree: a root whose slots are all empty.
-        box = np.full((1, 6 * WIDTH), np.nan)
-        child = np.zeros((1, 2 * WIDTH), np.int64)
-        child[:, WIDTH:] = SLOT_EMPTY
-        return WideBvh(box, child)
     box, child = _widen(tree.lo, tree.hi, tree.a.astype(np.int64), tree.n.astype(np.int64))
     return WideBvh(box, child)

@@ -264,7 +264,8 @@ class _Compiler:
             a /= np.linalg.norm(a)
             b = np.cross(n, a)  # a x b = n
             r = model.radius
-            q2, u2, v2 = _apply(m, model.center), _linear(m) @ (a * r), _linear(m) @ (b * r)
+            lin3 = _linear(m)
+            q2, u2, v2 = _apply(m, model.center), lin3 @ (a * r), lin3 @ (b * r)
             ext = np.sqrt(u2 * u2 + v2 * v2)
             out.append((L.DISK, _planar_row(q2, u2, v2, flip), q2 - ext, q2 + ext))
         else:  # box
@@ -368,7 +369,7 @@ class _Compiler:
                 prim_rows.append(tables.rows[j])
                 prim_mat.append(tables.mat[j])
             wide = widen(tree)
-            child = wide.child.copy()
+            child = wide.child
             # Offsets become absolute: leaves into the primitive table, interior slots into the nodes.
             codes, counts = child[:, :WIDTH], child[:, WIDTH:]
             codes += np.where(counts > 0, base, np.where(counts == 0, node_count, 0))

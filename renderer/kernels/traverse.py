@@ -310,4 +310,4 @@ def tree_prim_range(nodes_i, root):
                 hi = max(hi, code + count)
             elif count == 0:
                 stack.append(code)
-    return lo, max(hi, lo)
+    return lo, hi

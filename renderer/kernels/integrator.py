@@ -3,14 +3,14 @@
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, uint64
 
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
 from .features import DEFOCUS, EMITTERS, IMAGE, INSTANCES, MEDIA, MOTION, SKY
 from .geometry import spawn_origin, surface
 from .materials import is_zero, scatter
-from .rng import DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
+from .rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
 from .textures import texture_value
 from .traverse import intersect_scene
 from .vec import dot, madd, neg, unit, xform_normal, xform_point, xform_vector
@@ -25,6 +25,29 @@ def background(bg, d):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def lens_point(key):
+    """A uniform point (x, y) of the unit disk for the path with `key`.
+
+    Points of the square [-1, 1]^2 are drawn until one falls inside (pi/4 of them do), which
+    costs no sine or cosine: those took 6% of a defocused render. Each try uses dimensions of
+    its own, so a kept point is exactly uniform. After eight misses (a chance of 5e-6) the
+    polar form, r = sqrt(U) and an angle, gives the point from two more fresh dimensions.
+    """
+    for k in range(8):
+        if k == 0:
+            x = 2.0 * uniform(key, DIM_LENS_X) - 1.0
+            y = 2.0 * uniform(key, DIM_LENS_Y) - 1.0
+        else:
+            x = 2.0 * uniform(key, DIM_LENS_RETRY + uint64(2 * k)) - 1.0
+            y = 2.0 * uniform(key, DIM_LENS_RETRY + uint64(2 * k + 1)) - 1.0
+        if x * x + y * y < 1.0:
+            return x, y
+    r = math.sqrt(uniform(key, DIM_LENS_RETRY + uint64(16)))
+    phi = 2.0 * math.pi * uniform(key, DIM_LENS_RETRY + uint64(17))
+    return r * math.cos(phi), r * math.sin(phi)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def camera_ray(cam, i, j, key):
     """Origin, direction and time of the camera ray through pixel (i, j) for the path with `key`."""
     ox = uniform(key, DIM_PIXEL_X) - 0.5
@@ -36,10 +59,7 @@ def camera_ray(cam, i, j, key):
     )
     origin = (cam[0], cam[1], cam[2])
     if DEFOCUS and cam[18] > 0.0:
-        # A uniform point on the lens disk (polar form: r = sqrt(U) keeps the density uniform).
-        r = math.sqrt(uniform(key, DIM_LENS_X))
-        phi = 2.0 * math.pi * uniform(key, DIM_LENS_Y)
-        lx, ly = r * math.cos(phi), r * math.sin(phi)
+        lx, ly = lens_point(key)
         origin = (
             cam[0] + lx * cam[12] + ly * cam[15],
             cam[1] + lx * cam[13] + ly * cam[16],

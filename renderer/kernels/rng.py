@@ -20,6 +20,10 @@ DIM_PIXEL_Y = 1
 DIM_LENS_X = 2
 DIM_LENS_Y = 3
 DIM_TIME = 4
+# A lens sample is a point of the square kept when it falls in the disk: its later tries, and
+# the rare fallback, draw from a stream of their own (dimensions 2^61 + k), so the camera's
+# eight dimensions are enough.
+DIM_LENS_RETRY = np.uint64(1) << np.uint64(61)
 DIM_BOUNCE = 8
 DIMS_PER_BOUNCE = 10
 # Media draw their free-flight distance from a stream of their own, keyed by medium and bounce,

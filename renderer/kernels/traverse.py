@@ -180,36 +180,55 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     node = root
     while True:
         t0, t1, t2, t3 = slab4(nodes_f, node, o, inv, tmin, best_t)
+        # The nearest child met is visited at once; the others are pushed, nearest on top.
+        near, near_t = -1, INF
+        if t0 < near_t:
+            near, near_t = 0, t0
+        if t1 < near_t:
+            near, near_t = 1, t1
+        if t2 < near_t:
+            near, near_t = 2, t2
+        if t3 < near_t:
+            near, near_t = 3, t3
         base = sp
-        if t0 < INF:
+        if t0 < INF and near != 0:
             sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[node, 0], nodes_i[node, 4])
-        if t1 < INF:
+        if t1 < INF and near != 1:
             sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[node, 1], nodes_i[node, 5])
-        if t2 < INF:
+        if t2 < INF and near != 2:
             sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[node, 2], nodes_i[node, 6])
-        if t3 < INF:
+        if t3 < INF and near != 3:
             sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[node, 3], nodes_i[node, 7])
+        code, count = -1, -1
+        if near >= 0:
+            code, count = nodes_i[node, near], nodes_i[node, 4 + near]
         node = -1
-        while sp > 0:
-            sp -= 1
-            if stack_t[sp] > best_t:
-                continue
-            code, count = stack_i[sp, 0], stack_i[sp, 1]
+        while True:
             if count == 0:
                 node = code
                 break
-            for prim in range(code, code + count):
-                kind = prims_i[prim, 0]
-                if MEDIA and kind == MEDIUM:
-                    if n_deferred < deferred.shape[0]:
-                        deferred[n_deferred] = prim
-                        n_deferred += 1
-                        continue
-                    t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
-                else:
-                    t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
-                if t < best_t:
-                    best_t, best_prim = t, prim
+            if count > 0:
+                for prim in range(code, code + count):
+                    kind = prims_i[prim, 0]
+                    if MEDIA and kind == MEDIUM:
+                        if n_deferred < deferred.shape[0]:
+                            deferred[n_deferred] = prim
+                            n_deferred += 1
+                            continue
+                        t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
+                    else:
+                        t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
+                    if t < best_t:
+                        best_t, best_prim = t, prim
+            # The next pushed entry the ray reaches before the best hit so far.
+            count = -1
+            while sp > 0:
+                sp -= 1
+                if stack_t[sp] <= best_t:
+                    code, count = stack_i[sp, 0], stack_i[sp, 1]
+                    break
+            if count < 0:
+                break
         if node < 0:
             break
     if MEDIA:

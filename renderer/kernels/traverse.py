@@ -175,6 +175,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     stack_t, stack_i, deferred = stack
     n_deferred = 0
     inv = inverse_direction(d)
+    inv_a = 1.0 / dot(d, d)
     best_t, best_prim = tmax, -1
     sp = 0
     node = root
@@ -217,7 +218,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                             continue
                         t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
                     else:
-                        t = hit_primitive(kind, prims_f, prim, o, d, tmin, best_t, time)
+                        t = hit_primitive(kind, prims_f, prim, o, d, inv_a, tmin, best_t, time)
                     if t < best_t:
                         best_t, best_prim = t, prim
             # The next pushed entry the ray reaches before the best hit so far.
@@ -309,7 +310,7 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
             if kind == MEDIUM:
                 t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, 2])
             else:
-                t = hit_primitive(kind, S.prims_f, prim, oo, dd, tmin, best_t, time)
+                t = hit_primitive(kind, S.prims_f, prim, oo, dd, 1.0 / dot(dd, dd), tmin, best_t, time)
             if t < best_t:
                 best_t, best_prim, best_inst = t, prim, inst
     return best_t, best_prim, best_inst

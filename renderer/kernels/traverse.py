@@ -149,16 +149,23 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def at(i):
+    """Index i, known to be >= 0, as an unsigned number: Numba then leaves out the code that
+    would count a negative index from the end (three instructions per access of the hot loop)."""
+    return uint64(i)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def push_sorted(stack_t, stack_i, base, sp, t, code, count):
     """Push (t, code, count) onto the stack's entries base..sp-1, kept in order of falling t,
     and return the new size. A node's children are pushed this way, so the nearest is popped first."""
     j = sp
-    while j > base and stack_t[j - 1] < t:
-        stack_t[j] = stack_t[j - 1]
-        stack_i[j, 0], stack_i[j, 1] = stack_i[j - 1, 0], stack_i[j - 1, 1]
+    while j > base and stack_t[at(j - 1)] < t:
+        stack_t[at(j)] = stack_t[at(j - 1)]
+        stack_i[at(j), 0], stack_i[at(j), 1] = stack_i[at(j - 1), 0], stack_i[at(j - 1), 1]
         j -= 1
-    stack_t[j] = t
-    stack_i[j, 0], stack_i[j, 1] = code, count
+    stack_t[at(j)] = t
+    stack_i[at(j), 0], stack_i[at(j), 1] = code, count
     return sp + 1
 
 
@@ -193,16 +200,16 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
             near, near_t = 3, t3
         base = sp
         if t0 < INF and near != 0:
-            sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[node, 0], nodes_i[node, 4])
+            sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[at(node), 0], nodes_i[at(node), 4])
         if t1 < INF and near != 1:
-            sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[node, 1], nodes_i[node, 5])
+            sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[at(node), 1], nodes_i[at(node), 5])
         if t2 < INF and near != 2:
-            sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[node, 2], nodes_i[node, 6])
+            sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[at(node), 2], nodes_i[at(node), 6])
         if t3 < INF and near != 3:
-            sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[node, 3], nodes_i[node, 7])
+            sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[at(node), 3], nodes_i[at(node), 7])
         code, count = -1, -1
         if near >= 0:
-            code, count = nodes_i[node, near], nodes_i[node, 4 + near]
+            code, count = nodes_i[at(node), at(near)], nodes_i[at(node), at(4 + near)]
         node = -1
         while True:
             if count == 0:
@@ -210,7 +217,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                 break
             if count > 0:
                 for prim in range(code, code + count):
-                    kind = prims_i[prim, 0]
+                    kind = prims_i[at(prim), 0]
                     if MEDIA and kind == MEDIUM:
                         if n_deferred < deferred.shape[0]:
                             deferred[n_deferred] = prim
@@ -218,15 +225,15 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                             continue
                         t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
                     else:
-                        t = hit_primitive(kind, prims_f, prim, o, d, inv_a, tmin, best_t, time)
+                        t = hit_primitive(kind, prims_f, at(prim), o, d, inv_a, tmin, best_t, time)
                     if t < best_t:
                         best_t, best_prim = t, prim
             # The next pushed entry the ray reaches before the best hit so far.
             count = -1
             while sp > 0:
                 sp -= 1
-                if stack_t[sp] <= best_t:
-                    code, count = stack_i[sp, 0], stack_i[sp, 1]
+                if stack_t[at(sp)] <= best_t:
+                    code, count = stack_i[at(sp), 0], stack_i[at(sp), 1]
                     break
             if count < 0:
                 break

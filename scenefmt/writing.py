@@ -11,6 +11,7 @@ from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 
+from .loading import _CoreSchemaResolver
 from .scene import Scene
 
 SCHEMA_COMMENT = "# yaml-language-server: $schema={url}\n"
@@ -94,6 +95,12 @@ def _represent_dict(dumper: yaml.SafeDumper, data: dict) -> yaml.Node:
 
 _SceneDumper.add_representer(list, _represent_list)
 _SceneDumper.add_representer(dict, _represent_dict)
+# A string is quoted when a reader could take it for something else. PyYAML's dumper knows the
+# YAML 1.1 forms; scene files are read by the YAML 1.2 core schema, where `0E0` or `1e5` is a
+# number too, so its forms are added (a description "0E0" was written bare and read back as 0).
+for _first, _resolvers in _CoreSchemaResolver.yaml_implicit_resolvers.items():
+    for _tag, _regexp in _resolvers:
+        _SceneDumper.add_implicit_resolver(_tag, _regexp, [_first])
 
 
 def _compact_json(data: Any, indent: str = "") -> str:

@@ -141,6 +141,13 @@ def test_load_of_dump_reproduces_the_scene(scene, syntax):
     assert loads(dumps(scene, syntax), syntax=syntax).scene == scene
 
 
+@pytest.mark.parametrize("text", ["0E0", "1e5", "-2E-3", ".5", "0o17", "0x1F", "true", "NULL", "~", "", ".inf", "12"])
+def test_a_description_that_reads_as_a_number_or_keyword_keeps_its_quotes(text):
+    """YAML 1.2 reads `0E0` as a number where YAML 1.1 does not: the writer must quote it."""
+    scene = m.Scene(description=text)
+    assert loads(dumps(scene, "yaml")).scene.description == text
+
+
 @pytest.mark.parametrize("path", sorted(p.name for p in SCENES.glob("*.yaml")) + sorted(p.name for p in SCENES.glob("*.json")))
 def test_book_scenes_survive_a_round_trip_through_both_syntaxes(path, tmp_path):
     original = load(SCENES / path).scene

@@ -1,8 +1,9 @@
 """Flatten a scene graph into a FlatScene: tables of primitives, materials and textures, and BVHs.
 
 Transforms are baked into primitives wherever the shape keeps its kind (a transformed quad,
-triangle, disk or box is still made of parallelograms; a sphere under a similarity is still a
-sphere), so the common case pays nothing for instancing. Groups placed by instances become
+triangle, disk or box is still made of parallelograms, a box kept axis-aligned is still one box
+row, a sphere under a similarity is still a sphere), so the common case pays nothing for
+instancing. Groups placed by instances become
 shared bottom-level trees; a sphere under a non-uniform scale becomes a one-shape instance.
 """
 
@@ -71,8 +72,9 @@ def _mul(lin, v) -> tuple[float, float, float]:
     return tuple(_dot(row, v) for row in lin)  # type: ignore[return-value]
 
 
-# Planar rows are computed on Python floats, not numpy arrays: the final scene has 2400 box
-# faces, and numpy's per-call cost on 3-vectors made flattening it take 0.3 s instead of 0.05.
+# Planar rows are computed on Python floats, not numpy arrays: scenes have thousands of them (the
+# final scene's ground was 2400 box faces before boxes got rows of their own), and numpy's
+# per-call cost on 3-vectors made flattening them take six times as long.
 def _planar_row(q, u, v, flip: bool) -> list[float]:
     n = _cross(u, v)
     nn = _dot(n, n)
@@ -278,26 +280,51 @@ class _Compiler:
                 add(L.QUAD, q, u, v, ((0, 0), (1, 0), (0, 1), (1, 1)))
         return out
 
-    def shape_rows(self, shape: ShapeNode, m):
+    def box_row(self, shape: ShapeNode, m) -> Optional[tuple[int, list, tuple, tuple]]:
+        """(BOX, row, lo, hi) of a box that m keeps axis-aligned and not flat, else None.
+
+        A ray meets such a box in one slab test where its six faces as quads took six tests; in
+        the final scene the ground's 400 boxes are 2400 quads, and a ray leaving a box top met
+        about seven of them.
+        """
+        if any(m[r][c] != 0.0 for r in range(3) for c in range(3) if r != c):
+            return None
+        a, b = affine.apply_point(m, shape.model.min), affine.apply_point(m, shape.model.max)
+        lo = tuple(min(a[k], b[k]) for k in range(3))
+        hi = tuple(max(a[k], b[k]) for k in range(3))
+        if not all(hi[k] > lo[k] for k in range(3)):
+            return None
+        row = [0.0] * L.PRIM_WIDTH
+        row[0:3], row[3:6] = lo, hi
+        return L.BOX, row, lo, hi
+
+    def shape_rows(self, shape: ShapeNode, m, mat: Optional[int] = None):
+        """The rows of shape baked through m: a surface made of material row `mat`, or, with no
+        material, a medium's boundary (those stay quads: the media code tests planar rows)."""
         if shape.kind in ("sphere", "moving_sphere"):
             row = self.sphere_row(shape, m)
             return None if row is None else [row]
+        if shape.kind == "box" and mat is not None and not self.reads_uv(self.mat_rows[mat][1]):
+            row = self.box_row(shape, m)
+            if row is not None:
+                return [row]
         return self.planar_rows(shape, m)
 
     def add_shape(self, tables: _Tables, shape: ShapeNode, m) -> bool:
         """Append shape's rows (surface and medium) baked through m; False if it needs an instance."""
-        rows = self.shape_rows(shape, m)
-        if rows is None:
+        mat = self.material(shape.material) if shape.material is not None else None
+        surface = self.shape_rows(shape, m, mat)
+        if surface is None:
             return False
-        if shape.material is not None:
-            mat = self.material(shape.material)
-            for kind, row, lo, hi in rows:
+        if mat is not None:
+            for kind, row, lo, hi in surface:
                 tables.kind.append(kind)
                 tables.rows.append(row)
                 tables.mat.append(mat)
                 tables.lo.append(lo)
                 tables.hi.append(hi)
         if shape.interior is not None:
+            rows = surface if mat is None or surface[0][0] != L.BOX else self.shape_rows(shape, m)
             start = len(self.bnd_rows)
             for kind, row, _, _ in rows:
                 self.bnd_kind.append(kind)

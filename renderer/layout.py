@@ -9,6 +9,9 @@ Primitive rows hold 16 float64 values:
   coordinates of a point P are alpha = (P - Q) . A and beta = (P - Q) . B (disk: u and v are
   radius-long axes, and the disk is alpha^2 + beta^2 <= 1)
 - MEDIUM:        -1/density 0, first boundary row 1, number of boundary rows 2, serial number 3
+- BOX:           an axis-aligned box of the tree's space, lo 0:3, hi 3:6. A box shape becomes
+  one when its transform keeps it axis-aligned, it has thickness in every axis and its material
+  does not read (u, v); otherwise it is six QUAD rows. One slab test replaces six quad tests.
 """
 
 PRIM_WIDTH = 16
@@ -19,6 +22,7 @@ QUAD = 2
 TRIANGLE = 3
 DISK = 4
 MEDIUM = 5
+BOX = 6
 
 # Materials: kind, texture index, whether that texture reads (u, v) (an image, or a checker
 # over one: the kernels compute (u, v) only then), and up to two parameters (metal fuzz,

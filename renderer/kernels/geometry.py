@@ -5,7 +5,7 @@ import math
 from numba import njit
 
 from ..config import SPAWN_OFFSET
-from ..layout import DISK, MOVING_SPHERE, QUAD, SPHERE, TRIANGLE
+from ..layout import BOX, DISK, MOVING_SPHERE, QUAD, SPHERE, TRIANGLE
 from .features import MOTION
 from .vec import dot, madd, max_abs, row3, scale, sub
 
@@ -90,10 +90,42 @@ def hit_planar(kind, data, i, o, d, tmin, tmax):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def hit_primitive(kind, data, i, o, d, inv_a, tmin, tmax, time):
-    """Distance to primitive i of a surface kind along the ray, or inf; `inv_a` is 1 / (d . d)."""
+def hit_box(data, i, o, d, inv, tmin, tmax):
+    """Distance in (tmin, tmax) to the surface of axis-aligned box i (lo 0:3, hi 3:6), or inf.
+
+    `inv` is the ray's inverse direction. The ray enters at the largest of the three near plane
+    distances and leaves at the smallest far one; from inside the box, the exit is the hit.
+    Faces are closed, as a quad's edges are: a ray parallel to an axis is inside that slab when
+    its origin lies between the two planes or on one of them, so a ray lying in a face meets
+    the faces it crosses at their edges (docs/robustness.md).
+    """
+    near, far = -INF, INF
+    for k in range(3):
+        lo, hi = data[i, k], data[i, 3 + k]
+        if d[k] == 0.0:
+            if not lo <= o[k] <= hi:
+                return INF
+            continue
+        t0 = (lo - o[k]) * inv[k]
+        t1 = (hi - o[k]) * inv[k]
+        near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
+    if not near <= far:
+        return INF
+    if tmin < near < tmax:
+        return near
+    if tmin < far < tmax:
+        return far
+    return INF
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def hit_primitive(kind, data, i, o, d, inv, inv_a, tmin, tmax, time):
+    """Distance to primitive i of a surface kind along the ray, or inf; `inv` is the inverse
+    direction (see hit_box) and `inv_a` is 1 / (d . d)."""
     if kind == SPHERE or kind == MOVING_SPHERE:
         return hit_sphere(sphere_center(kind, data, i, time), data[i, 3], o, d, inv_a, tmin, tmax)
+    if kind == BOX:
+        return hit_box(data, i, o, d, inv, tmin, tmax)
     return hit_planar(kind, data, i, o, d, tmin, tmax)
 
 
@@ -104,6 +136,34 @@ def sphere_uv(n_obj):
     theta = math.acos(y)
     phi = math.atan2(-n_obj[2], n_obj[0]) + math.pi
     return phi / (2.0 * math.pi), theta / math.pi
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def box_surface(data, i, p, d):
+    """Hit point, outward unit normal and (0, 0) of a hit at p on box i, by a ray along d: the
+    face nearest to p among those the ray is not parallel to (a ray lying in a face's plane
+    meets the faces it crosses, see hit_box).
+
+    The point is moved onto that face's plane, which removes the rounding of o + t d across
+    it. A box row is only made for materials that do not read (u, v) (see layout.BOX).
+    """
+    best, axis, side = INF, 0, 0
+    for k in range(3):
+        if d[k] == 0.0:
+            continue
+        below = abs(p[k] - data[i, k])
+        above = abs(data[i, 3 + k] - p[k])
+        if below < best:
+            best, axis, side = below, k, 0
+        if above < best:
+            best, axis, side = above, k, 1
+    face = data[i, 3 * side + axis]
+    sign = 1.0 if side == 1 else -1.0
+    if axis == 0:
+        return (face, p[1], p[2]), (sign, 0.0, 0.0), 0.0, 0.0
+    if axis == 1:
+        return (p[0], face, p[2]), (0.0, sign, 0.0), 0.0, 0.0
+    return (p[0], p[1], face), (0.0, 0.0, sign), 0.0, 0.0
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -132,6 +192,8 @@ def surface(kind, data, i, o, d, t, time, want_uv):
         )
         u, v = sphere_uv(n_obj)
         return p, n, u, v
+    if kind == BOX:
+        return box_surface(data, i, p, d)
     n = row3(data, i, 3)
     rel = sub(p, row3(data, i, 0))
     alpha = dot(rel, row3(data, i, 7))

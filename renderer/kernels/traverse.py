@@ -225,7 +225,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                             continue
                         t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
                     else:
-                        t = hit_primitive(kind, prims_f, at(prim), o, d, inv_a, tmin, best_t, time)
+                        t = hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, tmin, best_t, time)
                     if t < best_t:
                         best_t, best_prim = t, prim
             # The next pushed entry the ray reaches before the best hit so far.
@@ -317,7 +317,7 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
             if kind == MEDIUM:
                 t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, 2])
             else:
-                t = hit_primitive(kind, S.prims_f, prim, oo, dd, 1.0 / dot(dd, dd), tmin, best_t, time)
+                t = hit_primitive(kind, S.prims_f, prim, oo, dd, inverse_direction(dd), 1.0 / dot(dd, dd), tmin, best_t, time)
             if t < best_t:
                 best_t, best_prim, best_inst = t, prim, inst
     return best_t, best_prim, best_inst

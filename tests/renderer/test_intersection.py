@@ -89,22 +89,57 @@ def test_planar_shapes_agree_with_the_reference(shape):
     assert hits > N_RAYS // 20
 
 
-def test_box_agrees_with_the_reference():
+BOX_TRANSFORMS = {
+    # A transform that keeps the box axis-aligned makes one BOX row (a mirror and a scale
+    # included); a rotation makes six quads.
+    "plain": ([], 1),
+    "mirrored and scaled": ([m.ScaleStep(scale=(-1.5, 0.7, 2.0)), m.TranslateStep(translate=(0.3, -0.2, 0.1))], 1),
+    "rotated": ([m.RotateStep(rotate=m.Rotation(axis=(1, 2, 0), degrees=30))], 6),
+}
+
+
+@pytest.mark.parametrize("name", list(BOX_TRANSFORMS))
+def test_box_agrees_with_the_reference(name):
+    from scenefmt import affine
+    from renderer import layout as L
+
+    steps, rows = BOX_TRANSFORMS[name]
     rng = np.random.default_rng(5)
     lo, hi = (-1.0, -0.5, -0.8), (0.9, 1.2, 0.7)
-    flat = flat_of(m.Box(min=lo, max=hi, material=MAT))
+    flat = flat_of(m.Box(min=lo, max=hi, material=MAT, transform=steps))
+    assert len(flat.prims_i) == rows and set(flat.prims_i[:, 0]) == {L.BOX if rows == 1 else L.QUAD}
+    world = affine.from_steps(steps) if steps else affine.IDENTITY
+    inv = naive.inverse(world)
     o, d = random_rays(rng, N_RAYS)
     t, prim, _, p, n, _ = probe(flat, o, d)
-    hits = 0
+    hits = inside = 0
     for k in range(N_RAYS):
-        ref = naive.box(lo, hi, tuple(o[k]), tuple(d[k]))
+        ref = naive.box(lo, hi, naive.apply(inv, tuple(o[k])), naive.apply_linear(inv, tuple(d[k])))
         if ref is None:
             assert prim[k] < 0
             continue
         hits += 1
+        inside += all(lo[a] < naive.apply(inv, tuple(o[k]))[a] < hi[a] for a in range(3))
         assert t[k] == pytest.approx(ref[0], rel=1e-9, abs=1e-12)
-        assert n[k] == pytest.approx(ref[1], abs=1e-12)
-    assert hits > N_RAYS // 4
+        assert n[k] == pytest.approx(naive.transform_normal(world, ref[1]), abs=1e-9)
+        assert p[k] == pytest.approx(np.array(o[k]) + ref[0] * np.array(d[k]), abs=1e-9)
+    assert hits > N_RAYS // 4 and inside > 20  # rays from inside meet the box where they leave it
+
+
+def test_a_box_whose_material_reads_uv_or_that_bounds_a_medium_keeps_its_quads(tmp_path):
+    """An image texture needs each face's (u, v), and a medium's boundary is tested as planes:
+    both stay six quads. A box with both a surface and a medium has a box row and six quads."""
+    from PIL import Image
+    from renderer import layout as L
+
+    Image.fromarray(np.zeros((2, 2, 3), np.uint8), "RGB").save(tmp_path / "tex.png")
+    textured = m.Lambertian(albedo=m.ImageTexture(file=str(tmp_path / "tex.png")))
+    flat = flat_of(m.Box(min=(0, 0, 0), max=(1, 1, 1), material=textured))
+    assert list(flat.prims_i[:, 0]) == [L.QUAD] * 6
+    fog = m.ConstantMedium(density=0.5)
+    flat = flat_of(m.Box(min=(0, 0, 0), max=(1, 1, 1), material=MAT, interior=fog))
+    assert sorted(flat.prims_i[:, 0]) == sorted([L.BOX, L.MEDIUM])
+    assert list(flat.bnd_i) == [L.QUAD] * 6
 
 
 def test_instances_agree_with_the_reference():

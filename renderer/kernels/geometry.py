@@ -23,6 +23,16 @@ def sphere_center(kind, data, i, time):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def first_inside(t0, t1, tmin, tmax):
+    """The first of the distances t0 <= t1 (where a ray enters and leaves a solid) in (tmin, tmax), or inf."""
+    if tmin < t0 < tmax:
+        return t0
+    if tmin < t1 < tmax:
+        return t1
+    return INF
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def hit_sphere(c, r, o, d, inv_a, tmin, tmax):
     """Nearest root in (tmin, tmax) of |o + t d - c| = r, or inf; `inv_a` is 1 / (d . d).
 
@@ -48,13 +58,7 @@ def hit_sphere(c, r, o, d, inv_a, tmin, tmax):
         return INF
     t0 = cc / q
     t1 = q * inv_a
-    if t0 > t1:
-        t0, t1 = t1, t0
-    if tmin < t0 < tmax:
-        return t0
-    if tmin < t1 < tmax:
-        return t1
-    return INF
+    return first_inside(min(t0, t1), max(t0, t1), tmin, tmax)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -111,11 +115,7 @@ def hit_box(data, i, o, d, inv, tmin, tmax):
         near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
     if not near <= far:
         return INF
-    if tmin < near < tmax:
-        return near
-    if tmin < far < tmax:
-        return far
-    return INF
+    return first_inside(near, far, tmin, tmax)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

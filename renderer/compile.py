@@ -283,9 +283,9 @@ class _Compiler:
     def box_row(self, shape: ShapeNode, m) -> Optional[tuple[int, list, tuple, tuple]]:
         """(BOX, row, lo, hi) of a box that m keeps axis-aligned and not flat, else None.
 
-        A ray meets such a box in one slab test where its six faces as quads took six tests; in
-        the final scene the ground's 400 boxes are 2400 quads, and a ray leaving a box top met
-        about seven of them.
+        A ray meets such a box in one slab test where its six faces as quads take six tests; as
+        quads, the final scene's 400 ground boxes were 2400 rows, and a ray leaving a box top
+        met about seven of them.
         """
         if any(m[r][c] != 0.0 for r in range(3) for c in range(3) if r != c):
             return None
@@ -324,7 +324,8 @@ class _Compiler:
                 tables.lo.append(lo)
                 tables.hi.append(hi)
         if shape.interior is not None:
-            rows = surface if mat is None or surface[0][0] != L.BOX else self.shape_rows(shape, m)
+            # A medium's boundary is tested as planes: a box row's faces are made for it.
+            rows = self.planar_rows(shape, m) if surface[0][0] == L.BOX else surface
             start = len(self.bnd_rows)
             for kind, row, _, _ in rows:
                 self.bnd_kind.append(kind)

@@ -174,9 +174,9 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     """Closest primitive of the wide tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
 
     Each step tests the four child boxes of a node at once (simd.slab4), goes on to the nearest
-    the ray meets and pushes the others, nearest on top. `stack` holds three arrays: entry distances, (node or first
-    primitive, primitive count), and room for the media met, which are tested after the
-    surfaces. A popped entry is skipped without another test when a nearer hit has been found
+    the ray meets and pushes the others, nearest on top. `stack` holds three arrays: entry
+    distances, (node or first primitive, primitive count), and room for the media met, which
+    are tested after the surfaces. A popped entry is skipped without another test when a nearer hit has been found
     since it was pushed.
     """
     stack_t, stack_i, deferred = stack

@@ -124,6 +124,25 @@ def run_rt(*args, cwd, env_extra=None, **kw):
     return subprocess.run([sys.executable, "-m", "rt", *args], cwd=cwd, env=env, capture_output=True, text=True, **kw)
 
 
+def test_the_program_keeps_the_collector_off_and_freezes_what_lives_at_its_end():
+    # The console script runs rt.__main__:run; its exit status is the command's, and the
+    # objects alive at the end are frozen so the interpreter's shutdown passes skip them.
+    from importlib.metadata import entry_points
+
+    (script,) = [e for e in entry_points(group="console_scripts") if e.name == "rt"]
+    assert script.value == "rt.__main__:run"
+    probe = (
+        "import gc, sys\n"
+        "from rt.__main__ import run\n"
+        "sys.argv = ['rt', 'validate', sys.argv[1]]\n"
+        "try:\n    run()\nexcept SystemExit as exc:\n    code = exc.code\n"
+        "print(code, gc.isenabled(), gc.get_freeze_count() > 1000)\n"
+    )
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "cornell_box.yaml"
+    out = subprocess.run([sys.executable, "-c", probe, str(scene)], capture_output=True, text=True)
+    assert out.stdout.split()[-3:] == ["0", "False", "True"], out.stdout + out.stderr
+
+
 def test_render_writes_the_default_output_name_and_applies_overrides(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     out = run_rt("render", "ball.yaml", "--spp", "2", "--width", "20", "--max-depth", "3", cwd=tmp_path)

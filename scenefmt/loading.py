@@ -130,6 +130,7 @@ def _mark_position(mark: Any) -> Position:
 def _prescan_yaml(text: str, file: str) -> None:
     """Bound nesting depth and the node count after alias expansion, from the event stream alone."""
     depth = 0
+    total = 0  # values so far, aliases counted at their expanded size
     sizes: dict[str, int] = {}
     stack: list[list] = [[0, None]]  # [node count, anchor] per open collection
     loader = _ComposingLoader(text)
@@ -141,6 +142,7 @@ def _prescan_yaml(text: str, file: str) -> None:
                 if depth > MAX_DEPTH:
                     raise SceneError([Diagnostic(file, *_mark_position(event.start_mark), (), f"nesting deeper than {MAX_DEPTH} levels")])
                 stack.append([1, event.anchor])
+                total += 1
             elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
                 depth -= 1
                 count, anchor = stack.pop()
@@ -151,11 +153,16 @@ def _prescan_yaml(text: str, file: str) -> None:
                 if event.anchor is not None:
                     sizes[event.anchor] = 1
                 stack[-1][0] += 1
+                total += 1
             elif isinstance(event, yaml.AliasEvent):
-                stack[-1][0] += sizes.get(event.anchor, 1)
+                size = sizes.get(event.anchor, 1)
+                stack[-1][0] += size
+                total += size
             else:
                 continue
-            if stack[-1][0] > MAX_NODES or sum(s[0] for s in stack) > MAX_NODES:
+            # A closed collection's count moves into its parent's, so `total` is the sum over the
+            # stack; kept as it goes, not summed per event (that was half the scan's time).
+            if total > MAX_NODES:
                 raise SceneError(
                     [
                         Diagnostic(

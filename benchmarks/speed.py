@@ -2,9 +2,9 @@
 
     python benchmarks/speed.py [--runs 3] [--threads N]
 
-Prints, per scene: the median and the best wall time of the whole `rt render` process, the rays per second
-it reports, the peak resident memory, and the target and reference times. The first run of a
-scene may compile the kernels; it is done once beforehand and not counted.
+Prints, per scene: the median and the best wall time of the whole `rt render` process, the rays
+per second it reports, the peak resident memory, and the target and reference times. The first
+run of a scene may compile the kernels; it is done once beforehand and not counted.
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ def main() -> int:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--threads", type=int, default=None)
     args = parser.parse_args()
-    print(f"machine: {os.cpu_count()} cores; median of {args.runs} runs (and the best, which a shared machine disturbs least); warm kernel cache")
+    print(f"machine: {os.cpu_count()} cores; median and best of {args.runs} runs (a shared machine disturbs the best least); "
+          "warm kernel cache")
     print(f"{'scene':<18} {'settings':<22} {'time':>7} {'best':>7} {'target':>7} {'C++ ref':>8} {'Mrays/s':>8} {'peak MiB':>9}")
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = Path(tmp)

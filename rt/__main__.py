@@ -5,7 +5,7 @@ end. Start-up (Numba, pydantic, typer, the scene's models) makes several hundred
 objects that live until the process ends; the collector's passes over them freed nothing.
 Measured on a 2-core machine, whole processes: its passes during the imports cost 5 to 9% of a
 small warm render, and the interpreter's shutdown, which collects while it tears the modules
-down, took 0.2 to 0.25 s to end the process. Frozen objects are ignored by every later pass.
+down, took 0.2 to 0.3 s to end the process. Frozen objects are ignored by every later pass.
 A command makes few reference cycles, and the process ends soon after; `rt.cli.app` itself,
 which tests run in their own process, leaves the collector as it found it (see `_without_gc`).
 """

@@ -161,7 +161,7 @@ def _prescan_yaml(text: str, file: str) -> None:
             else:
                 continue
             # A closed collection's count moves into its parent's, so `total` is the sum over the
-            # stack; kept as it goes, not summed per event (that was half the scan's time).
+            # stack; kept as it goes, not summed per event (that was a fifth of the scan's time).
             if total > MAX_NODES:
                 raise SceneError(
                     [

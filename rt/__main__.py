@@ -6,8 +6,9 @@ objects that live until the process ends; the collector's passes over them freed
 Measured on a 2-core machine, whole processes: its passes during the imports cost 5 to 9% of a
 small warm render, and the interpreter's shutdown, which collects while it tears the modules
 down, took 0.2 to 0.3 s to end the process. Frozen objects are ignored by every later pass.
-A command makes few reference cycles, and the process ends soon after; `rt.cli.app` itself,
-which tests run in their own process, leaves the collector as it found it (see `_without_gc`).
+A command makes few reference cycles, and the process ends soon after. This is the one place
+that decides the collector's state: `rt.cli.app`, which tests run in their own process, leaves
+it alone.
 """
 
 import gc

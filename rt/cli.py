@@ -5,8 +5,6 @@
 
 from __future__ import annotations
 
-import functools
-import gc
 import json
 import os
 import sys
@@ -27,29 +25,6 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-
-
-def _without_gc(command):
-    """Run a command with Python's cyclic garbage collector paused.
-
-    Start-up (importing Numba and pydantic, building the scene's models) allocates hundreds of
-    thousands of objects that live to the end; the collector's passes over them freed nothing
-    and took 15 to 20% of a warm `rt render`. A command is short-lived and makes few reference
-    cycles: with the collector paused, those few are freed when the process ends. The previous
-    state is restored, for callers that run commands in their own process (tests).
-    """
-
-    @functools.wraps(command)
-    def run(*args, **kwargs):
-        was_enabled = gc.isenabled()
-        gc.disable()
-        try:
-            return command(*args, **kwargs)
-        finally:
-            if was_enabled:
-                gc.enable()
-
-    return run
 
 
 def _summary_lines(loaded) -> list[str]:
@@ -80,7 +55,6 @@ def _summary_lines(loaded) -> list[str]:
 @app.command(
     epilog="Example: rt validate scenes/cornell_box.yaml scenes/quads.json --json",
 )
-@_without_gc
 def validate(
     files: List[Path] = typer.Argument(..., help="Scene files (YAML or JSON) to check.", show_default=False),
     as_json: bool = typer.Option(False, "--json", help="Print machine-readable results (one JSON document)."),
@@ -189,7 +163,6 @@ class _Progress:
 
 
 @app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.pfm")
-@_without_gc
 def render(
     scene: Path = typer.Argument(..., help="Scene file (YAML or JSON) to render.", show_default=False),
     output: Optional[Path] = typer.Option(

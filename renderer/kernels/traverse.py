@@ -176,8 +176,8 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
     Each step tests the four child boxes of a node at once (simd.slab4), goes on to the nearest
     the ray meets and pushes the others, nearest on top. `stack` holds three arrays: entry
     distances, (node or first primitive, primitive count), and room for the media met, which
-    are tested after the surfaces. A popped entry is skipped without another test when a nearer hit has been found
-    since it was pushed.
+    are tested after the surfaces. A popped entry is skipped without another test when a
+    nearer hit has been found since it was pushed.
     """
     stack_t, stack_i, deferred = stack
     n_deferred = 0
@@ -311,13 +311,14 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
         dd = xform_vector(S.inst_f, inst, 12, d)
         if S.inst_i[inst, 1] == 1:
             oo, dd = o, d
+        inv, inv_a = inverse_direction(dd), 1.0 / dot(dd, dd)
         lo_prim, hi_prim = tree_prim_range(S.nodes_i, S.inst_i[inst, 0])
         for prim in range(lo_prim, hi_prim):
             kind = S.prims_i[prim, 0]
             if kind == MEDIUM:
                 t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, 2])
             else:
-                t = hit_primitive(kind, S.prims_f, prim, oo, dd, inverse_direction(dd), 1.0 / dot(dd, dd), tmin, best_t, time)
+                t = hit_primitive(kind, S.prims_f, prim, oo, dd, inv, inv_a, tmin, best_t, time)
             if t < best_t:
                 best_t, best_prim, best_inst = t, prim, inst
     return best_t, best_prim, best_inst

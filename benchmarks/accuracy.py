@@ -73,7 +73,8 @@ def depth_study(graph_small, reference):
 
 
 def resolution_study(graph):
-    from renderer.render import render, with_width
+    from renderer.compile import with_width
+    from renderer.render import render
 
     out = []
     for width in (32, 64, 128, 256):
@@ -125,7 +126,8 @@ def main() -> int:
     parser.add_argument("--scenes", default="")
     parser.add_argument("--no-plots", action="store_true")
     args = parser.parse_args()
-    from renderer.render import render, with_width
+    from renderer.compile import with_width
+    from renderer.render import render
     from scenefmt.validation import load
 
     paths = sorted((ROOT / "scenes").glob("*.yaml")) + sorted((ROOT / "scenes").glob("*.json"))

@@ -30,8 +30,8 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from renderer.compile import compile_scene  # noqa: E402
-from renderer.render import render, with_width  # noqa: E402
+from renderer.compile import compile_scene, with_width  # noqa: E402
+from renderer.render import render  # noqa: E402
 from renderer.variants import GENERAL, KernelFeatures, features_of  # noqa: E402
 from scenefmt.validation import load, loads  # noqa: E402
 

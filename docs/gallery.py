@@ -23,7 +23,8 @@ DEFAULT_SPP = 128
 def main() -> int:
     sys.path.insert(0, str(ROOT))
     from renderer.film import write_png
-    from renderer.render import render, with_width
+    from renderer.compile import with_width
+    from renderer.render import render
     from scenefmt.validation import load
 
     OUT.mkdir(exist_ok=True)

@@ -15,6 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from . import jit_cache  # noqa: F401  (chooses the cache folder before the functions below are made)
 from .config import BVH_BINS, BVH_MAX_LEAF
 
 # A flat box is padded to this thickness (relative to the scene's scale) so slab tests stay robust.
@@ -288,3 +289,13 @@ def widen(tree: Bvh) -> WideBvh:
     """The four-wide form of a binary tree (same leaves, same primitive order)."""
     box, child = _widen(tree.lo, tree.hi, tree.a.astype(np.int64), tree.n.astype(np.int64))
     return WideBvh(box, child)
+
+
+def load_builders() -> None:
+    """Have the tree builders' machine code ready (loaded from Numba's disk cache, or compiled).
+
+    The first call of any compiled function also sets up Numba's compiler, about 0.15 s even
+    when the code comes from the cache: `rt render` pays that while another process reads the
+    scene (rt/preload.py).
+    """
+    widen(build_bvh(np.zeros((1, 3)), np.ones((1, 3))))

@@ -1,4 +1,4 @@
-"""Flatten a scene graph into a FlatScene: tables of primitives, materials and textures, and BVHs.
+"""Flatten a scene graph into tables of primitives, materials and textures; `assemble` adds the BVHs.
 
 Transforms are baked into primitives wherever the shape keeps its kind (a transformed quad,
 triangle, disk or box is still made of parallelograms, a box kept axis-aligned is still one box
@@ -9,9 +9,9 @@ shared bottom-level trees; a sphere under a non-uniform scale becomes a one-shap
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass, field
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
@@ -21,9 +21,11 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.scene import SkyBackground
 
 from . import layout as L
-from .bvh import WIDTH, build_bvh, single_leaf, widen
-from .flat import FlatScene
+from .tables import SceneTables, TreeTables
 from .textures import load_image_texels, perlin_tables
+
+if TYPE_CHECKING:
+    from .flat import FlatScene
 
 _BOX_FACES = (
     # (corner selector, u axis, v axis) as in the book: all six u x v point outward.
@@ -51,12 +53,6 @@ def _similarity_scale(lin: np.ndarray) -> Optional[float]:
     if s2 <= 0 or not np.allclose(g, s2 * np.eye(3), rtol=1e-9, atol=1e-12 * s2):
         return None
     return math.sqrt(s2)
-
-
-def _inverse_affine(m: np.ndarray) -> np.ndarray:
-    full = np.eye(4)
-    full[:3, :] = m.reshape(3, 4)
-    return np.linalg.inv(full)[:3, :].reshape(12)
 
 
 def _cross(a, b) -> tuple[float, float, float]:
@@ -93,19 +89,9 @@ def _planar_row(q, u, v, flip: bool) -> list[float]:
     return row
 
 
-@dataclass
-class _Tables:
-    kind: list = field(default_factory=list)
-    rows: list = field(default_factory=list)
-    mat: list = field(default_factory=list)
-    lo: list = field(default_factory=list)
-    hi: list = field(default_factory=list)
-
-
 class _Compiler:
-    def __init__(self, graph: SceneGraph, use_bvh: bool = True):
+    def __init__(self, graph: SceneGraph):
         self.graph = graph
-        self.build_tree = build_bvh if use_bvh else single_leaf
         self.shutter_open = float(graph.shutter.open)
         self.shutter_close = float(graph.shutter.close)
         self.tex_rows: list[tuple] = []
@@ -119,7 +105,7 @@ class _Compiler:
         self.phase_ids: dict[int, int] = {}
         self.bnd_kind: list[int] = []
         self.bnd_rows: list[np.ndarray] = []
-        self.blas: list[_Tables] = []
+        self.blas: list[TreeTables] = []
         self.blas_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
@@ -310,7 +296,7 @@ class _Compiler:
                 return [row]
         return self.planar_rows(shape, m)
 
-    def add_shape(self, tables: _Tables, shape: ShapeNode, m) -> bool:
+    def add_shape(self, tables: TreeTables, shape: ShapeNode, m) -> bool:
         """Append shape's rows (surface and medium) baked through m; False if it needs an instance."""
         mat = self.material(shape.material) if shape.material is not None else None
         surface = self.shape_rows(shape, m, mat)
@@ -350,7 +336,7 @@ class _Compiler:
         """Record the instances that put `group` into the world, flattening nested instances."""
         key = id(group)
         if key not in self.blas_of_group:
-            tables = _Tables()
+            tables = TreeTables()
             self.blas_of_group[key] = len(self.blas)
             self.blas.append(tables)
             self.fill(group, tables)
@@ -363,116 +349,35 @@ class _Compiler:
             elif id(member) in self.own_instance:
                 self.instances.append((self.own_instance[id(member)], affine.compose(world_from_group, member.transform)))
 
-    def fill(self, group: GroupNode, tables: _Tables) -> None:
+    def fill(self, group: GroupNode, tables: TreeTables) -> None:
         for member in group.members:
             if isinstance(member, InstanceNode):
                 continue
             if not self.add_shape(tables, member, member.transform):
                 # An ellipsoid: the sphere in its own tree, placed by its transform.
-                own = _Tables()
+                own = TreeTables()
                 self.add_shape(own, member, affine.IDENTITY)
                 self.own_instance[id(member)] = len(self.blas)
                 self.blas.append(own)
 
     # --- the whole scene -----------------------------------------------------------------------
 
-    def run(self) -> FlatScene:
+    def run(self) -> SceneTables:
         self.place(self.graph.root, affine.IDENTITY)
-        prim_kind, prim_rows, prim_mat = [], [], []
-        node_box, node_child = [], []
-        node_count = 0
-        blas_root, blas_lo, blas_hi = [], [], []
-        for tables in self.blas:
-            blas_root.append(node_count)
-            if not tables.kind:
-                blas_lo.append(np.full(3, np.inf))
-                blas_hi.append(np.full(3, -np.inf))
-                continue
-            tree = self.build_tree(np.array(tables.lo), np.array(tables.hi))
-            blas_lo.append(tree.lo[0])
-            blas_hi.append(tree.hi[0])
-            base = len(prim_kind)
-            for j in tree.order:
-                prim_kind.append(tables.kind[j])
-                prim_rows.append(tables.rows[j])
-                prim_mat.append(tables.mat[j])
-            wide = widen(tree)
-            child = wide.child
-            # Offsets become absolute: leaves into the primitive table, interior slots into the nodes.
-            codes, counts = child[:, :WIDTH], child[:, WIDTH:]
-            codes += np.where(counts > 0, base, np.where(counts == 0, node_count, 0))
-            node_box.append(wide.box)
-            node_child.append(child)
-            node_count += len(child)
-
-        def cat(parts, shape, dtype):
-            return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
-
-        # Instances: world bounds from the 8 corners of each tree's root box.
-        inst_root, inst_ident, inst_o2w, inst_w2o, ilo, ihi = [], [], [], [], [], []
-        for blas, m in self.instances:
-            root = blas_root[blas]
-            o2w = np.array(m, dtype=np.float64).reshape(12)
-            lo, hi = blas_lo[blas], blas_hi[blas]
-            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-            world = corners @ _linear(m).T + o2w.reshape(3, 4)[:, 3]
-            inst_root.append(root)
-            inst_ident.append(1 if affine.is_identity(m) else 0)
-            inst_o2w.append(o2w)
-            inst_w2o.append(_inverse_affine(o2w))
-            ilo.append(world.min(axis=0))
-            ihi.append(world.max(axis=0))
-        tlas = self.build_tree(np.array(ilo).reshape(-1, 3), np.array(ihi).reshape(-1, 3))
-        order = tlas.order
-        tlas_a = tlas.a.astype(np.int32)
-
-        def pick(values, shape, dtype):
-            arr = np.array(values, dtype=dtype).reshape(shape)
-            return np.ascontiguousarray(arr[order]) if len(values) else arr
-
-        n_tex = len(self.tex_rows)
-        tex_kind = np.array([r[0] for r in self.tex_rows], np.int32).reshape(n_tex)
-        tex_color = np.array([r[1] for r in self.tex_rows], np.float64).reshape(n_tex, 3)
-        tex_param = np.array([r[2] for r in self.tex_rows], np.float64).reshape(n_tex, 4)
-        tex_child = np.array([r[3] for r in self.tex_rows], np.int32).reshape(n_tex, 2)
-        n_mat = len(self.mat_rows)
         # The kernels index textures without bounds checks: a bad row would read stray memory.
+        n_tex = len(self.tex_rows)
         for kind, tex, _ in self.mat_rows:
             if not 0 <= tex < n_tex:
                 raise AssertionError(f"material of kind {kind} refers to texture row {tex} of {n_tex}")
-        texels = np.concatenate(self.texel_chunks).astype(np.float32) if self.texel_chunks else np.zeros((1, 3), np.float32)
-        if self.noise:
-            noise_perm = np.stack([p for p, _ in self.noise]).astype(np.int32)
-            noise_vec = np.stack([v for _, v in self.noise]).astype(np.float64)
-        else:
-            noise_perm = np.zeros((1, 3, 256), np.int32)
-            noise_vec = np.zeros((1, 256, 3), np.float64)
-        inst_o2w_arr = pick(inst_o2w, (-1, 12), np.float64)
-        inst_w2o_arr = pick(inst_w2o, (-1, 12), np.float64)
-        return FlatScene(
-            prims_i=np.stack([np.array(prim_kind, np.int32), np.array(prim_mat, np.int32)], axis=1).reshape(-1, 2),
-            prims_f=np.array(prim_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
-            bnd_i=np.array(self.bnd_kind, np.int32),
-            bnd_f=np.array(self.bnd_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
-            nodes_f=np.ascontiguousarray(cat(node_box, (0, 6 * WIDTH), np.float64)),
-            nodes_i=np.ascontiguousarray(cat(node_child, (0, 2 * WIDTH), np.int64)),
-            inst_i=np.ascontiguousarray(
-                np.stack(
-                    [pick(inst_root, (-1,), np.int32), pick(inst_ident, (-1,), np.int32),
-                     pick(list(range(len(inst_root))), (-1,), np.int32)],
-                    axis=1,
-                ).reshape(-1, 3)
-            ),
-            inst_f=np.ascontiguousarray(np.concatenate([inst_o2w_arr, inst_w2o_arr], axis=1).reshape(-1, 24)),
-            tlas_f=np.ascontiguousarray(np.concatenate([tlas.lo, tlas.hi], axis=1)),
-            tlas_i=np.ascontiguousarray(np.stack([tlas_a, tlas.n, tlas.axis], axis=1).astype(np.int32)),
-            mat_i=np.array([(r[0], r[1], self.reads_uv(r[1])) for r in self.mat_rows], np.int32).reshape(n_mat, 3),
-            mat_f=np.array([r[2] for r in self.mat_rows], np.float64).reshape(n_mat, 2),
-            tex_i=np.concatenate([tex_kind.reshape(-1, 1), tex_child], axis=1).astype(np.int32),
-            tex_f=np.ascontiguousarray(np.concatenate([tex_color, tex_param], axis=1)),
-            texels=texels,
-            noise_perm=noise_perm,
-            noise_vec=noise_vec,
+        return SceneTables(
+            blas=self.blas,
+            instances=[(blas, m, affine.is_identity(m)) for blas, m in self.instances],
+            tex_rows=self.tex_rows,
+            mat_rows=[(kind, tex, param, self.reads_uv(tex)) for kind, tex, param in self.mat_rows],
+            texel_chunks=self.texel_chunks,
+            noise=self.noise,
+            bnd_kind=self.bnd_kind,
+            bnd_rows=self.bnd_rows,
             camera=camera_array(self.graph),
             background=background_array(self.graph),
         )
@@ -516,7 +421,25 @@ def background_array(graph: SceneGraph) -> np.ndarray:
     return out
 
 
+def with_width(graph: SceneGraph, width: int) -> SceneGraph:
+    """The graph rendered at another width, keeping the image's shape."""
+    image = graph.image
+    update = {"width": width}
+    if image.height is not None:
+        update["height"] = max(1, round(image.height * width / image.width))
+    return dataclasses.replace(graph, image=image.model_copy(update=update))
+
+
+def scene_tables(graph: SceneGraph) -> SceneTables:
+    """Flatten `graph` into tables of primitives, materials and textures: all but the trees."""
+    return _Compiler(graph).run()
+
+
 def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
     """Flatten `graph` into the arrays the kernels read. Without `use_bvh` every tree is a single
     leaf, so each ray tests every primitive: the brute-force reference the BVH must agree with."""
-    return _Compiler(graph, use_bvh).run()
+    # Imported here, not above: the trees are built by compiled code, and the tables alone are
+    # made without importing Numba (in rt render's loading process, see rt/preload.py).
+    from .assemble import assemble
+
+    return assemble(scene_tables(graph), use_bvh)

@@ -4,9 +4,12 @@ Tables are few and wide on purpose: Numba passes each array to a function as a s
 several words, so the hot functions take a handful of arrays rather than the whole tuple.
 """
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from scenefmt.graph import SceneGraph
 
 
 class FlatScene(NamedTuple):
@@ -37,3 +40,18 @@ class FlatScene(NamedTuple):
     # Camera, background and shutter.
     camera: np.ndarray  # (21,) float64: origin, pixel00, du, dv, disk_u, disk_v, lens radius, open, close
     background: np.ndarray  # (7,) float64: kind, colour or bottom, top
+
+
+class Frame(NamedTuple):
+    """The image settings a render reads from a scene."""
+
+    width: int
+    height: int
+    samples: int
+    max_depth: int
+    seed: int
+
+    @classmethod
+    def of(cls, graph: "SceneGraph") -> "Frame":
+        image = graph.image
+        return cls(image.width, image.pixel_height, image.samples_per_pixel, image.max_depth, image.seed)

@@ -7,20 +7,19 @@ random numbers are keyed by sample index, the passes' split never changes the im
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import TYPE_CHECKING, Callable, Optional
 
 import numpy as np
 
-from scenefmt.graph import SceneGraph
-
-from .compile import compile_scene
 from .film import Film, relative_noise
-from .flat import FlatScene
+from .flat import FlatScene, Frame
 from .variants import GENERAL, KernelFeatures, features_of, kernels_for
+
+if TYPE_CHECKING:  # the scene's models are not needed to render a flat scene (see rt/preload.py)
+    from scenefmt.graph import SceneGraph
 
 PASS_SECONDS = 0.25
 MIN_SAMPLES_FOR_NOISE = 8
@@ -50,15 +49,6 @@ class RenderStats:
 class RenderResult:
     film: Film
     stats: RenderStats = field(default_factory=RenderStats)
-
-
-def with_width(graph: SceneGraph, width: int) -> SceneGraph:
-    """The graph rendered at another width, keeping the image's shape."""
-    image = graph.image
-    update = {"width": width}
-    if image.height is not None:
-        update["height"] = max(1, round(image.height * width / image.width))
-    return dataclasses.replace(graph, image=image.model_copy(update=update))
 
 
 def kernels_cached(features: KernelFeatures = GENERAL) -> bool:
@@ -94,6 +84,41 @@ def render(
 ) -> RenderResult:
     """Render `graph` (its image settings, unless overridden) until `samples` per pixel are done.
 
+    `flat` is the graph already flattened (compile.compile_scene); the rest is as `render_flat`.
+    """
+    start = time.perf_counter()
+    if flat is None:
+        from .compile import compile_scene
+
+        flat = compile_scene(graph)
+    compile_seconds = time.perf_counter() - start
+    result = render_flat(
+        flat, Frame.of(graph), samples=samples, max_depth=max_depth, seed=seed, film=film, progress=progress,
+        should_stop=should_stop, pass_seconds=pass_seconds, time_budget=time_budget, noise_target=noise_target,
+        features=features,
+    )
+    result.stats.compile_seconds = compile_seconds
+    return result
+
+
+def render_flat(
+    flat: FlatScene,
+    frame: Frame,
+    *,
+    samples: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    seed: Optional[int] = None,
+    film: Optional[Film] = None,
+    progress: Optional[Callable[[RenderStats], None]] = None,
+    should_stop: Optional[Callable[[], bool]] = None,
+    pass_seconds: float = PASS_SECONDS,
+    time_budget: Optional[float] = None,
+    noise_target: Optional[float] = None,
+    features: Optional[KernelFeatures] = None,
+) -> RenderResult:
+    """Render the flat scene `flat` with the settings of `frame` (unless overridden) until
+    `samples` per pixel are done.
+
     `film` continues an earlier render with the same seed; `should_stop` is polled between
     passes and ends the render early (the film then holds every finished pass). With
     `time_budget` (seconds of rendering) or `noise_target` (relative RMS noise, see
@@ -104,17 +129,11 @@ def render(
     (`variants.features_of`); `variants.GENERAL` renders with every path compiled in. Any
     kernel that has the paths the scene reaches gives the same image.
     """
-
-    image = graph.image
-    width, height = image.width, image.pixel_height
-    target = samples if samples is not None else image.samples_per_pixel
-    depth = max_depth if max_depth is not None else image.max_depth
-    seed = seed if seed is not None else image.seed
+    width, height = frame.width, frame.height
+    target = samples if samples is not None else frame.samples
+    depth = max_depth if max_depth is not None else frame.max_depth
+    seed = seed if seed is not None else frame.seed
     stats = RenderStats(target_samples=target)
-    start = time.perf_counter()
-    if flat is None:
-        flat = compile_scene(graph)
-    stats.compile_seconds = time.perf_counter() - start
     needed = features_of(flat)
     if features is not None and not features.covers(needed):
         raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")

@@ -30,6 +30,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
+from . import jit_cache  # noqa: F401  (the cache folder the copies' folders go under)
 from . import layout as L
 from .flat import FlatScene
 from .kernels import features as _general_flags

@@ -197,21 +197,7 @@ def render(
     import signal
     import time
 
-    from scenefmt.diagnostics import SceneError
-    from scenefmt.validation import load
-
     started = time.perf_counter()
-    try:
-        loaded = load(scene)
-    except SceneError as exc:
-        for diag in exc.diagnostics:
-            typer.echo(str(diag), err=True)
-        raise typer.Exit(1)
-    if explain:
-        from scenefmt.effects import summarize
-
-        for effect in summarize(loaded.graph).effects:
-            typer.echo(f"{effect}", err=True)
     out = output if output is not None else Path(scene.stem + ".png")
     budget_seconds = None
     if time_budget is not None:
@@ -227,39 +213,89 @@ def render(
             typer.echo(f"error: {path}: the folder {path.parent} does not exist", err=True)
             raise typer.Exit(1)
 
-    import numba
+    from .preload import SceneLoader, can_fork, load_tables
 
-    from renderer.film import estimate_noise, noise_map_image, write_image
-    from renderer.state import RenderKey, load_state, scene_fingerprint
-    from renderer.state import save_state as write_state
-    from scenefmt.writing import dumps
-    from renderer.compile import compile_scene
-    from renderer.render import kernels_cached, with_width
-    from renderer.variants import features_of
-    from renderer.render import render as render_graph
+    # The scene's models are kept only where they are needed: to explain its effects, or for the
+    # fingerprint that --resume and --save-state check. Otherwise a child process reads the
+    # scene while this one imports Numba (see preload.py).
+    keep_model = explain or resume is not None or save_state is not None
+    loader = SceneLoader(scene, width) if not keep_model and can_fork() else None
+    try:
+        import numba
+
+        from renderer.assemble import assemble
+        from renderer.bvh import load_builders
+        from renderer.film import estimate_noise, noise_map_image, write_image
+        from renderer.render import kernels_cached
+        from renderer.render import render_flat
+        from renderer.variants import features_of
+
+        if loader is not None:
+            load_builders()
+        outcome = loader.result() if loader is not None else None
+    finally:
+        if loader is not None:
+            loader.close()
+    loaded = None
+    if outcome is None:
+        from scenefmt.diagnostics import SceneError
+        from scenefmt.validation import load
+        from renderer.compile import scene_tables, with_width
+        from renderer.flat import Frame
+
+        try:
+            if keep_model:
+                loaded = load(scene)
+                graph = loaded.graph if width is None else with_width(loaded.graph, width)
+                outcome = ("tables", (scene_tables(graph), Frame.of(graph)))
+            else:
+                outcome = ("tables", load_tables(scene, width))
+        except SceneError as exc:
+            outcome = ("scene", exc.diagnostics)
+        except ValueError as exc:
+            outcome = ("value", str(exc))
+    kind, value = outcome
+    if kind == "scene":
+        for diag in value:
+            typer.echo(str(diag), err=True)
+        raise typer.Exit(1)
+    if kind == "value":  # input the format cannot check, such as an unreadable image file
+        typer.echo(f"error: {scene}: {value}", err=True)
+        raise typer.Exit(1)
+    tables, frame = value
+    if explain:
+        from scenefmt.effects import summarize
+
+        for effect in summarize(loaded.graph).effects:
+            typer.echo(f"{effect}", err=True)
 
     if threads is not None:
         if threads > numba.config.NUMBA_NUM_THREADS:
             typer.echo(f"error: --threads {threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available", err=True)
             raise typer.Exit(1)
         numba.set_num_threads(threads)
-    graph = loaded.graph if width is None else with_width(loaded.graph, width)
     budgeted = budget_seconds is not None or noise is not None
     # With a time or noise budget the sample count is only a cap.
-    target = spp if spp is not None else (BUDGET_SAMPLE_CAP if budgeted else graph.image.samples_per_pixel)
-    def render_key() -> RenderKey:
+    target = spp if spp is not None else (BUDGET_SAMPLE_CAP if budgeted else frame.samples)
+
+    def render_key():
         # The scene's fingerprint (its canonical JSON, hashed) is only needed to resume or save a
         # render's state: 25 ms for the final scene that other renders need not pay.
+        from renderer.state import RenderKey, scene_fingerprint
+        from scenefmt.writing import dumps
+
         return RenderKey(
             scene_fingerprint(dumps(loaded.scene, "json")),
-            graph.image.width,
-            graph.image.pixel_height,
-            max_depth if max_depth is not None else graph.image.max_depth,
-            seed if seed is not None else graph.image.seed,
+            frame.width,
+            frame.height,
+            max_depth if max_depth is not None else frame.max_depth,
+            seed if seed is not None else frame.seed,
         )
 
     film = None
     if resume is not None:
+        from renderer.state import load_state
+
         try:
             film = load_state(resume, render_key())
         except (OSError, ValueError, KeyError) as exc:
@@ -268,17 +304,13 @@ def render(
         typer.echo(f"resuming {resume}: {film.samples} samples per pixel already rendered", err=True)
     stop = {"requested": False}
 
-    def on_interrupt(signum, frame):
+    def on_interrupt(signum, _stack_frame):
         if stop["requested"]:
             raise KeyboardInterrupt
         stop["requested"] = True
         sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
 
-    try:
-        flat = compile_scene(graph)
-    except ValueError as exc:  # input the format cannot check, such as an unreadable image file
-        typer.echo(f"error: {scene}: {exc}", err=True)
-        raise typer.Exit(1)
+    flat = assemble(tables)
     features = features_of(flat)
     if explain:
         typer.echo(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
@@ -291,9 +323,9 @@ def render(
     previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = _Progress(target, budget_seconds, noise)
     try:
-        result = render_graph(
-            graph, samples=target, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"],
-            film=film, time_budget=budget_seconds, noise_target=noise, flat=flat, features=features,
+        result = render_flat(
+            flat, frame, samples=target, max_depth=max_depth, seed=seed, progress=bar, should_stop=lambda: stop["requested"],
+            film=film, time_budget=budget_seconds, noise_target=noise, features=features,
         )
     except ValueError as exc:
         failure = str(exc)
@@ -317,6 +349,8 @@ def render(
     if noise_map is not None:
         write_image(noise_map, noise_map_image(estimate))
     if save_state is not None:
+        from renderer.state import save_state as write_state
+
         write_state(save_state, film, render_key())
     total = time.perf_counter() - started
     written = ", ".join(str(p) for p in (out, hdr, noise_map, save_state) if p is not None)

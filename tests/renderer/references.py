@@ -30,7 +30,8 @@ def scene_files() -> list[Path]:
 
 
 def render_small(path: Path, spp: int, seed: int):
-    from renderer.render import render, with_width
+    from renderer.compile import with_width
+    from renderer.render import render
     from scenefmt.validation import load
 
     graph = with_width(load(path).graph, WIDTH)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from renderer.film import Film, estimate_noise, noise_map_image
-from renderer.render import render, with_width
+from renderer.compile import with_width
+from renderer.render import render
 from renderer.state import RenderKey, load_state, save_state
 from scenefmt.validation import load, loads
 

@@ -8,7 +8,8 @@ import pytest
 
 from renderer.compile import compile_scene
 from renderer.film import Film, read_pfm, to_srgb8, write_image
-from renderer.render import render, with_width
+from renderer.compile import with_width
+from renderer.render import render
 from scenefmt.validation import loads
 
 # A little of everything: spheres, a moving sphere, quads, a box with fog, an instanced group,

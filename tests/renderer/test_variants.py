@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene
-from renderer.render import render, with_width
+from renderer.compile import with_width
+from renderer.render import render
 from renderer.variants import GENERAL, KernelFeatures, features_of, kernels_for
 from scenefmt.effects import summarize
 from scenefmt.validation import load, loads

@@ -51,8 +51,10 @@ def load_tables(scene: Path, width: Optional[int]) -> tuple[SceneTables, Frame]:
 
 def can_fork() -> bool:
     """Whether a child can load the scene to any gain: a fresh process (Numba not yet imported, so
-    there is start-up to overlap) with one thread (a fork copies only the calling thread)."""
-    return hasattr(os, "fork") and "numba" not in sys.modules and threading.active_count() == 1
+    there is start-up to overlap) with one thread (a fork copies only the calling thread), and a
+    second core for the child to run on."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return hasattr(os, "fork") and cores > 1 and "numba" not in sys.modules and threading.active_count() == 1
 
 
 class SceneLoader:

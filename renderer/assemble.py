@@ -20,23 +20,25 @@ def assemble(tables: SceneTables, use_bvh: bool = True) -> FlatScene:
     """The FlatScene of `tables`. Without `use_bvh` every tree is a single leaf (see compile_scene)."""
     build_tree = build_bvh if use_bvh else single_leaf
     prim_kind, prim_rows, prim_mat = [], [], []
+    prim_count = 0
     node_box, node_child = [], []
     node_count = 0
     blas_root, blas_lo, blas_hi = [], [], []
     for tree_tables in tables.blas:
         blas_root.append(node_count)
-        if not tree_tables.kind:
+        if not len(tree_tables.kind):
             blas_lo.append(np.full(3, np.inf))
             blas_hi.append(np.full(3, -np.inf))
             continue
-        tree = build_tree(np.array(tree_tables.lo), np.array(tree_tables.hi))
+        tree = build_tree(tree_tables.lo, tree_tables.hi)
         blas_lo.append(tree.lo[0])
         blas_hi.append(tree.hi[0])
-        base = len(prim_kind)
-        for j in tree.order:
-            prim_kind.append(tree_tables.kind[j])
-            prim_rows.append(tree_tables.rows[j])
-            prim_mat.append(tree_tables.mat[j])
+        base = prim_count
+        # The tree's rows in leaf order.
+        prim_kind.append(tree_tables.kind[tree.order])
+        prim_rows.append(tree_tables.rows[tree.order])
+        prim_mat.append(tree_tables.mat[tree.order])
+        prim_count += len(tree.order)
         wide = widen(tree)
         child = wide.child
         # Offsets become absolute: leaves into the primitive table, interior slots into the nodes.
@@ -89,8 +91,8 @@ def assemble(tables: SceneTables, use_bvh: bool = True) -> FlatScene:
     inst_o2w_arr = pick(inst_o2w, (-1, 12), np.float64)
     inst_w2o_arr = pick(inst_w2o, (-1, 12), np.float64)
     return FlatScene(
-        prims_i=np.stack([np.array(prim_kind, np.int32), np.array(prim_mat, np.int32)], axis=1).reshape(-1, 2),
-        prims_f=np.array(prim_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
+        prims_i=np.stack([cat(prim_kind, (0,), np.int32), cat(prim_mat, (0,), np.int32)], axis=1),
+        prims_f=cat(prim_rows, (0, L.PRIM_WIDTH), np.float64),
         bnd_i=np.array(tables.bnd_kind, np.int32),
         bnd_f=np.array(tables.bnd_rows, np.float64).reshape(-1, L.PRIM_WIDTH),
         nodes_f=np.ascontiguousarray(cat(node_box, (0, 6 * WIDTH), np.float64)),

@@ -370,7 +370,7 @@ class _Compiler:
             if not 0 <= tex < n_tex:
                 raise AssertionError(f"material of kind {kind} refers to texture row {tex} of {n_tex}")
         return SceneTables(
-            blas=self.blas,
+            blas=[tables.packed() for tables in self.blas],
             instances=[(blas, m, affine.is_identity(m)) for blas, m in self.instances],
             tex_rows=self.tex_rows,
             mat_rows=[(kind, tex, param, self.reads_uv(tex)) for kind, tex, param in self.mat_rows],

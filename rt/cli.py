@@ -213,21 +213,20 @@ def render(
             typer.echo(f"error: {path}: the folder {path.parent} does not exist", err=True)
             raise typer.Exit(1)
 
-    from .preload import SceneLoader, can_fork, load_tables
+    from .preload import SceneLoader, can_fork, read_scene
 
-    # The scene's models are kept only where they are needed: to explain its effects, or for the
-    # fingerprint that --resume and --save-state check. Otherwise a child process reads the
-    # scene while this one imports Numba (see preload.py).
-    keep_model = explain or resume is not None or save_state is not None
-    loader = SceneLoader(scene, width) if not keep_model and can_fork() else None
+    # The scene's models are needed only to explain its effects, or for the fingerprint that
+    # --resume and --save-state check. Otherwise a child process reads the scene while this one
+    # imports Numba (see preload.py), and sends back only its tables.
+    needs_models = explain or resume is not None or save_state is not None
+    loader = SceneLoader(scene, width) if not needs_models and can_fork() else None
     try:
         import numba
 
         from renderer.assemble import assemble
         from renderer.bvh import load_builders
         from renderer.film import estimate_noise, noise_map_image, write_image
-        from renderer.render import kernels_cached
-        from renderer.render import render_flat
+        from renderer.render import kernels_cached, render_flat
         from renderer.variants import features_of
 
         if loader is not None:
@@ -237,23 +236,8 @@ def render(
         if loader is not None:
             loader.close()
     loaded = None
-    if outcome is None:
-        from scenefmt.diagnostics import SceneError
-        from scenefmt.validation import load
-        from renderer.compile import scene_tables, with_width
-        from renderer.flat import Frame
-
-        try:
-            if keep_model:
-                loaded = load(scene)
-                graph = loaded.graph if width is None else with_width(loaded.graph, width)
-                outcome = ("tables", (scene_tables(graph), Frame.of(graph)))
-            else:
-                outcome = ("tables", load_tables(scene, width))
-        except SceneError as exc:
-            outcome = ("scene", exc.diagnostics)
-        except ValueError as exc:
-            outcome = ("value", str(exc))
+    if outcome is None:  # no child, or it gave no answer: read the scene here
+        outcome, loaded = read_scene(scene, width)
     kind, value = outcome
     if kind == "scene":
         for diag in value:

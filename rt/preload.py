@@ -7,7 +7,7 @@ Python bytecode, so two threads would only take turns on the interpreter lock. A
 does the first on another core while this process does the second, and sends the flattened
 tables back through a pipe.
 
-The child changes nothing but the time: it runs `load_tables`, the function this process would
+The child changes nothing but the time: it runs `read_scene`, the function this process would
 otherwise run itself. The scene's own errors come back as diagnostics; if the child fails in any
 other way (killed, out of memory, an unexpected exception, an answer that does not unpickle),
 `result` returns None and the caller loads the scene itself, so every error surfaces exactly as
@@ -28,13 +28,14 @@ if TYPE_CHECKING:
     from renderer.flat import Frame
     from renderer.tables import SceneTables
     from scenefmt.diagnostics import Diagnostic
+    from scenefmt.validation import LoadedScene
 
 # What the child sends: ("tables", (tables, frame)), ("scene", diagnostics) or ("value", message).
 Outcome = tuple[str, Union["tuple[SceneTables, Frame]", "list[Diagnostic]", str]]
 
 
-def load_tables(scene: Path, width: Optional[int]) -> tuple[SceneTables, Frame]:
-    """The scene's tables (all but its trees) and image settings, at `width` if given.
+def load_tables(scene: Path, width: Optional[int]) -> tuple[SceneTables, Frame, LoadedScene]:
+    """The scene's tables (all but its trees), image settings at `width` if given, and models.
 
     Raises SceneError for an invalid scene and ValueError for input the format cannot check
     (an unreadable image file). Imports neither Numba nor any module with compiled code.
@@ -43,10 +44,22 @@ def load_tables(scene: Path, width: Optional[int]) -> tuple[SceneTables, Frame]:
     from renderer.flat import Frame
     from scenefmt.validation import load
 
-    graph = load(scene).graph
-    if width is not None:
-        graph = with_width(graph, width)
-    return scene_tables(graph), Frame.of(graph)
+    loaded = load(scene)
+    graph = loaded.graph if width is None else with_width(loaded.graph, width)
+    return scene_tables(graph), Frame.of(graph), loaded
+
+
+def read_scene(scene: Path, width: Optional[int]) -> tuple[Outcome, Optional[LoadedScene]]:
+    """`load_tables` as an outcome (what the child sends), and the scene's models if it is valid."""
+    from scenefmt.diagnostics import SceneError
+
+    try:
+        tables, frame, loaded = load_tables(scene, width)
+    except SceneError as exc:
+        return ("scene", list(exc.diagnostics)), None
+    except ValueError as exc:
+        return ("value", str(exc)), None
+    return ("tables", (tables, frame)), loaded
 
 
 def can_fork() -> bool:
@@ -58,7 +71,7 @@ def can_fork() -> bool:
 
 
 class SceneLoader:
-    """A child process running `load_tables(scene, width)`; `result()` collects its answer."""
+    """A child process running `read_scene(scene, width)`; `result()` collects its outcome."""
 
     def __init__(self, scene: Path, width: Optional[int]):
         read_end, write_end = os.pipe()
@@ -104,14 +117,8 @@ def _child(fd: int, scene: Path, width: Optional[int]) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     code = 1
     try:
-        from scenefmt.diagnostics import SceneError
-
-        try:
-            outcome: Outcome = ("tables", load_tables(scene, width))
-        except SceneError as exc:
-            outcome = ("scene", list(exc.diagnostics))
-        except ValueError as exc:
-            outcome = ("value", str(exc))
+        # The scene's models stay here: the command needs only the tables.
+        outcome, _ = read_scene(scene, width)
         data = pickle.dumps(outcome, protocol=pickle.HIGHEST_PROTOCOL)
         with os.fdopen(fd, "wb") as pipe:
             pipe.write(data)

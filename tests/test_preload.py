@@ -31,7 +31,7 @@ def test_the_child_gives_the_tables_this_process_would(stem):
     path = ROOT / "scenes" / f"{stem}.yaml"
     kind, (tables, frame) = preload.SceneLoader(path, 48).result()
     assert kind == "tables"
-    here_tables, here_frame = preload.load_tables(path, 48)
+    here_tables, here_frame, _ = preload.load_tables(path, 48)
     assert frame == here_frame and frame.width == 48
     same_flat(assemble(tables), assemble(here_tables))
 

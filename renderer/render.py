@@ -67,24 +67,12 @@ def kernels_cached(features: KernelFeatures = GENERAL) -> bool:
         return True
 
 
-def render(
-    graph: SceneGraph,
-    *,
-    samples: Optional[int] = None,
-    max_depth: Optional[int] = None,
-    seed: Optional[int] = None,
-    flat: Optional[FlatScene] = None,
-    film: Optional[Film] = None,
-    progress: Optional[Callable[[RenderStats], None]] = None,
-    should_stop: Optional[Callable[[], bool]] = None,
-    pass_seconds: float = PASS_SECONDS,
-    time_budget: Optional[float] = None,
-    noise_target: Optional[float] = None,
-    features: Optional[KernelFeatures] = None,
-) -> RenderResult:
+def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) -> RenderResult:
     """Render `graph` (its image settings, unless overridden) until `samples` per pixel are done.
 
-    `flat` is the graph already flattened (compile.compile_scene); the rest is as `render_flat`.
+    `flat` is the graph already flattened (compile.compile_scene); `options` are those of
+    `render_flat` (samples, max_depth, seed, film, progress, should_stop, pass_seconds,
+    time_budget, noise_target, features).
     """
     start = time.perf_counter()
     if flat is None:
@@ -92,11 +80,7 @@ def render(
 
         flat = compile_scene(graph)
     compile_seconds = time.perf_counter() - start
-    result = render_flat(
-        flat, Frame.of(graph), samples=samples, max_depth=max_depth, seed=seed, film=film, progress=progress,
-        should_stop=should_stop, pass_seconds=pass_seconds, time_budget=time_budget, noise_target=noise_target,
-        features=features,
-    )
+    result = render_flat(flat, Frame.of(graph), **options)
     result.stats.compile_seconds = compile_seconds
     return result
 

@@ -52,6 +52,19 @@ def _summary_lines(loaded) -> list[str]:
     return lines
 
 
+def _tables_or_exit(outcome, scene: Path):
+    """The (tables, frame) of a scene read by preload.read_scene, or its errors printed and exit 1."""
+    kind, value = outcome
+    if kind == "scene":
+        for diag in value:
+            typer.echo(str(diag), err=True)
+        raise typer.Exit(1)
+    if kind == "value":  # input the format cannot check, such as an unreadable image file
+        typer.echo(f"error: {scene}: {value}", err=True)
+        raise typer.Exit(1)
+    return value
+
+
 @app.command(
     epilog="Example: rt validate scenes/cornell_box.yaml scenes/quads.json --json",
 )
@@ -220,6 +233,10 @@ def render(
     # imports Numba (see preload.py), and sends back only its tables.
     needs_models = explain or resume is not None or save_state is not None
     loader = SceneLoader(scene, width) if not needs_models and can_fork() else None
+    if loader is None:
+        # Read here, before Numba loads: an invalid scene is reported at once.
+        outcome, loaded = read_scene(scene, width)
+        tables, frame = _tables_or_exit(outcome, scene)
     try:
         import numba
 
@@ -231,22 +248,15 @@ def render(
 
         if loader is not None:
             load_builders()
-        outcome = loader.result() if loader is not None else None
+            outcome = loader.result()
     finally:
         if loader is not None:
             loader.close()
-    loaded = None
-    if outcome is None:  # no child, or it gave no answer: read the scene here
-        outcome, loaded = read_scene(scene, width)
-    kind, value = outcome
-    if kind == "scene":
-        for diag in value:
-            typer.echo(str(diag), err=True)
-        raise typer.Exit(1)
-    if kind == "value":  # input the format cannot check, such as an unreadable image file
-        typer.echo(f"error: {scene}: {value}", err=True)
-        raise typer.Exit(1)
-    tables, frame = value
+    if loader is not None:
+        loaded = None
+        if outcome is None:  # the child gave no answer: read the scene here
+            outcome, loaded = read_scene(scene, width)
+        tables, frame = _tables_or_exit(outcome, scene)
     if explain:
         from scenefmt.effects import summarize
 

@@ -128,3 +128,19 @@ def test_a_real_render_of_an_invalid_scene_prints_the_diagnostics_the_in_process
     child_lines = [line for line in out.stderr.splitlines() if line != "scene read by a child process"]
     assert child_lines == here.stderr.splitlines() and len(child_lines) >= 2
     assert not list(tmp_path.glob("*.png"))
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs CPU affinity")
+def test_on_one_core_the_scene_is_read_in_process_and_an_invalid_one_is_reported_before_numba_loads(tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("shapes:\n  - {type: sphere, center: [0, 0, 0], radious: 1}\n")
+    probe = (
+        "import os, sys\n"
+        "os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})\n"
+        "from rt.__main__ import run\n"
+        "sys.argv = ['rt', 'render', sys.argv[1]]\n"
+        "try:\n    run()\nexcept SystemExit as exc:\n    print('exit', exc.code, 'numba' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", probe, str(path)], capture_output=True, text=True)
+    assert out.stdout.split() == ["exit", "1", "False"], out.stdout + out.stderr
+    assert "bad.yaml:2:39" in out.stderr

@@ -85,16 +85,19 @@ class SceneLoader:
 
     def result(self) -> Optional[Outcome]:
         """The child's outcome once it has finished, or None if it gave none (load the scene here)."""
+        with os.fdopen(self._read_end, "rb") as pipe:
+            self._read_end = -1
+            data = pipe.read()
         try:
-            with os.fdopen(self._read_end, "rb") as pipe:
-                self._read_end = -1
-                data = pipe.read()
-            status = os.waitpid(self.pid, 0)[1]
-            self.pid = None
-            if not data or os.waitstatus_to_exitcode(status) != 0:
-                return None
-            outcome = pickle.loads(data)
-        except Exception:  # an answer cut short or unreadable: do the work here instead
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:  # reaped already (a parent that ignores SIGCHLD)
+            pass
+        self.pid = None
+        # The child writes only a whole answer; one cut short (the child killed while writing)
+        # does not unpickle.
+        try:
+            outcome = pickle.loads(data) if data else None
+        except Exception:
             return None
         return outcome if isinstance(outcome, tuple) and len(outcome) == 2 else None
 

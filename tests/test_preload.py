@@ -73,6 +73,16 @@ def test_a_child_that_dies_or_fails_otherwise_gives_no_answer(monkeypatch, loade
     assert preload.SceneLoader(ROOT / "scenes" / "cornell_box.yaml", None).result() is None
 
 
+def test_the_answer_is_kept_when_the_child_was_reaped_already():
+    # A parent that ignores SIGCHLD has its children reaped by the system: waitpid then fails.
+    previous = signal.signal(signal.SIGCHLD, signal.SIG_IGN)
+    try:
+        outcome = preload.SceneLoader(ROOT / "scenes" / "cornell_box.yaml", None).result()
+    finally:
+        signal.signal(signal.SIGCHLD, previous)
+    assert outcome is not None and outcome[0] == "tables"
+
+
 def test_close_stops_a_child_still_working(monkeypatch):
     monkeypatch.setattr(preload, "load_tables", lambda *_: __import__("time").sleep(60))
     loader = preload.SceneLoader(ROOT / "scenes" / "cornell_box.yaml", None)

@@ -35,7 +35,6 @@ class RenderStats:
     interrupted: bool = False
     stop_reason: str = "samples"  # samples | time | noise | interrupted
     noise: float = float("inf")  # relative RMS noise estimate at the end (see film.estimate_noise)
-    compile_seconds: float = 0.0  # flattening the graph and building the BVHs
     kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
     first_pass_seconds: float = 0.0
     features: Optional[KernelFeatures] = None  # the kernel's feature set
@@ -74,15 +73,11 @@ def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) ->
     `render_flat` (samples, max_depth, seed, film, progress, should_stop, pass_seconds,
     time_budget, noise_target, features).
     """
-    start = time.perf_counter()
     if flat is None:
         from .compile import compile_scene
 
         flat = compile_scene(graph)
-    compile_seconds = time.perf_counter() - start
-    result = render_flat(flat, Frame.of(graph), **options)
-    result.stats.compile_seconds = compile_seconds
-    return result
+    return render_flat(flat, Frame.of(graph), **options)
 
 
 def render_flat(

@@ -253,9 +253,9 @@ def render(
         if loader is not None:
             loader.close()
     if loader is not None:
-        loaded = None
+        # (The scene's models, `loaded`, are used only where no child was started.)
         if outcome is None:  # the child gave no answer: read the scene here
-            outcome, loaded = read_scene(scene, width)
+            outcome, _ = read_scene(scene, width)
         tables, frame = _tables_or_exit(outcome, scene)
     if explain:
         from scenefmt.effects import summarize

@@ -17,7 +17,7 @@ from rt.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
 
-pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the child is forked")
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="no os.fork on this platform: rt render reads the scene in its own process there (can_fork)")
 
 
 def same_flat(a, b):
@@ -140,7 +140,7 @@ def test_a_real_render_of_an_invalid_scene_prints_the_diagnostics_the_in_process
     assert not list(tmp_path.glob("*.png"))
 
 
-@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs CPU affinity")
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="limiting the probe to one core needs os.sched_setaffinity (Linux)")
 def test_on_one_core_the_scene_is_read_in_process_and_an_invalid_one_is_reported_before_numba_loads(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text("shapes:\n  - {type: sphere, center: [0, 0, 0], radious: 1}\n")

@@ -296,6 +296,6 @@ def load_builders() -> None:
 
     The first call of any compiled function also sets up Numba's compiler, about 0.15 s even
     when the code comes from the cache: `rt render` pays that while another process reads the
-    scene (rt/preload.py).
+    scene (rt/split.py).
     """
     widen(build_bvh(np.zeros((1, 3)), np.ones((1, 3))))

@@ -439,7 +439,7 @@ def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
     """Flatten `graph` into the arrays the kernels read. Without `use_bvh` every tree is a single
     leaf, so each ray tests every primitive: the brute-force reference the BVH must agree with."""
     # Imported here, not above: the trees are built by compiled code, and the tables alone are
-    # made without importing Numba (in rt render's loading process, see rt/preload.py).
+    # made without importing Numba (in rt render's front-end process, see rt/split.py).
     from .assemble import assemble
 
     return assemble(scene_tables(graph), use_bvh)

@@ -18,7 +18,7 @@ from .film import Film, relative_noise
 from .flat import FlatScene, Frame
 from .variants import GENERAL, KernelFeatures, features_of, kernels_for
 
-if TYPE_CHECKING:  # the scene's models are not needed to render a flat scene (see rt/preload.py)
+if TYPE_CHECKING:  # the scene's models are not needed to render a flat scene (see rt/split.py)
     from scenefmt.graph import SceneGraph
 
 PASS_SECONDS = 0.25

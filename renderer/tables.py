@@ -1,7 +1,7 @@
 """A scene flattened into tables, all but its trees: what `compile` makes and `assemble` finishes.
 
 Plain lists, tuples and numpy arrays, so the tables can be made in another process and pickled
-across (rt/preload.py), and their module needs neither pydantic nor Numba.
+across (rt/split.py), and their module needs neither pydantic nor Numba.
 """
 
 from __future__ import annotations

@@ -9,14 +9,21 @@ down, took 0.2 to 0.3 s to end the process. Frozen objects are ignored by every 
 A command makes few reference cycles, and the process ends soon after. This is the one place
 that decides the collector's state: `rt.cli.app`, which tests run in their own process, leaves
 it alone.
+
+`rt render` runs in two processes where that gains time (see split.py).
 """
 
 import gc
+import sys
 
 
 def run() -> None:
     gc.disable()
     try:
+        from . import split
+
+        if split.can_split(sys.argv):
+            sys.exit(split.run())
         from .cli import app
 
         app(prog_name="rt")

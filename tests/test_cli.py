@@ -221,7 +221,7 @@ def test_render_with_a_noise_target_says_why_it_stopped(tmp_path):
 
 
 def test_durations_are_parsed():
-    from rt.cli import _parse_duration
+    from rt.render_job import parse_duration as _parse_duration
 
     assert _parse_duration("30s") == 30
     assert _parse_duration("2m") == 120

@@ -1,0 +1,315 @@
+"""`rt render` in two halves: `prepare` reads the scene, `render_prepared` renders it.
+
+The front half checks the options, reads, checks and flattens the scene (PyYAML, pydantic and
+numpy, no Numba) and prints what only the scene's models can tell (`--explain`). The back half
+loads the renderer (Numba), renders and writes the images. What passes between them, the
+options and a `PreparedScene`, is plain data, so the halves can run in two processes: the `rt`
+program runs the front half in a child while it loads the renderer (see split.py). Each half
+prints its own errors and ends early with `Stop`. This module does without typer, so the
+process that renders does not import it.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Optional
+
+if TYPE_CHECKING:
+    from renderer.flat import Frame
+    from renderer.tables import SceneTables
+
+BUDGET_SAMPLE_CAP = 1_000_000
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """The options of one `rt render`, as parsed."""
+
+    scene: Path
+    output: Optional[Path] = None
+    hdr: Optional[Path] = None
+    spp: Optional[int] = None
+    width: Optional[int] = None
+    max_depth: Optional[int] = None
+    seed: Optional[int] = None
+    threads: Optional[int] = None
+    time_budget: Optional[str] = None
+    noise: Optional[float] = None
+    noise_map: Optional[Path] = None
+    save_state: Optional[Path] = None
+    resume: Optional[Path] = None
+    explain: bool = False
+
+    @property
+    def out(self) -> Path:
+        """The PNG to write: --output, or the scene file's name with .png in the current folder."""
+        return self.output if self.output is not None else Path(self.scene.stem + ".png")
+
+
+@dataclass(frozen=True)
+class PreparedScene:
+    """What the back half needs of a scene: its tables (all but the trees) and image settings."""
+
+    tables: SceneTables
+    frame: Frame
+    budget_seconds: Optional[float]  # --time in seconds
+    # sha256 of the scene's canonical JSON, for --resume and --save-state (None without them).
+    fingerprint: Optional[str]
+
+
+def parse_duration(text: str) -> Optional[float]:
+    """Seconds in '45', '30s', '2m', '1h30m', '1.5h'; None if it is not a duration."""
+    import re
+
+    text = text.strip().lower()
+    if re.fullmatch(r"\d+(\.\d+)?", text):
+        return float(text)
+    parts = re.findall(r"(\d+(?:\.\d+)?)([hms])", text)
+    if not parts or "".join(n + u for n, u in parts) != text:
+        return None
+    return sum(float(n) * {"h": 3600, "m": 60, "s": 1}[u] for n, u in parts)
+
+
+def fmt_seconds(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.1f}s"
+    minutes, sec = divmod(int(round(seconds)), 60)
+    return f"{minutes}m{sec:02d}s" if minutes < 60 else f"{minutes // 60}h{minutes % 60:02d}m"
+
+
+class Stop(Exception):
+    """The command ends with exit status `status`; what it had to say is printed already."""
+
+    def __init__(self, status: int):
+        super().__init__(status)
+        self.status = status
+
+
+def say(message: str, err: bool = False) -> None:
+    stream = sys.stderr if err else sys.stdout
+    stream.write(message + "\n")
+    stream.flush()
+
+
+def fail(message: str) -> Stop:
+    say(message, err=True)
+    return Stop(1)
+
+
+def prepare(opts: RenderOptions) -> PreparedScene:
+    """Check the options and read the scene; print its errors and raise Stop(1) if any.
+
+    Imports neither Numba nor any module with compiled code.
+    """
+    budget_seconds = None
+    if opts.time_budget is not None:
+        budget_seconds = parse_duration(opts.time_budget)
+        if budget_seconds is None:
+            raise fail(f"error: --time {opts.time_budget!r}: expected a duration such as 30s, 2m, 1h30m or 45")
+    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".pfm",)), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
+        if path is not None and path.suffix.lower() not in allowed:
+            raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
+        if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
+            raise fail(f"error: {path}: the folder {path.parent} does not exist")
+
+    from renderer.compile import scene_tables, with_width
+    from renderer.flat import Frame
+    from scenefmt.diagnostics import SceneError
+    from scenefmt.validation import load
+
+    try:
+        loaded = load(opts.scene)
+        graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
+        tables = scene_tables(graph)
+    except SceneError as exc:
+        for diag in exc.diagnostics:
+            say(str(diag), err=True)
+        raise Stop(1)
+    except ValueError as exc:  # input the format cannot check, such as an image that does not decode
+        raise fail(f"error: {opts.scene}: {exc}")
+    if opts.explain:
+        from scenefmt.effects import summarize
+
+        for effect in summarize(loaded.graph).effects:
+            say(f"{effect}", err=True)
+    fingerprint = None
+    if opts.resume is not None or opts.save_state is not None:
+        # The scene's canonical JSON, hashed: 25 ms for the final scene that other renders skip.
+        from renderer.state import scene_fingerprint
+        from scenefmt.writing import dumps
+
+        fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
+    return PreparedScene(tables, Frame.of(graph), budget_seconds, fingerprint)
+
+
+def load_renderer() -> None:
+    """Import Numba and the renderer, and have the tree builders' machine code ready.
+
+    This is most of the back half's start (about 0.4 s on a 2-core machine): the `rt` program
+    does it while the front half runs in another process.
+    """
+    from renderer.bvh import load_builders
+
+    load_builders()
+
+
+class Progress:
+    """A one-line progress bar on standard error (a line per 10% when it is not a terminal)."""
+
+    def __init__(self, total: int, seconds: Optional[float] = None, noise: Optional[float] = None):
+        self.total = total
+        self.seconds = seconds
+        self.noise = noise
+        self.tty = sys.stderr.isatty()
+        self.last_decile = -1
+
+    def __call__(self, stats) -> None:
+        done = stats.samples
+        frac = done / self.total if self.total else 1.0
+        # Under a budget, progress is the share of the budget spent: time, or noise (which falls
+        # as one over the square root of the samples).
+        if self.seconds:
+            frac = max(frac, stats.seconds / self.seconds)
+        if self.noise and 0 < stats.noise < float("inf"):
+            frac = max(frac, (self.noise / stats.noise) ** 2)
+        frac = min(frac, 1.0)
+        eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
+        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
+        noise = f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+        line = (
+            f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
+            f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
+        )
+        if self.tty:
+            sys.stderr.write("\r" + line)
+            sys.stderr.flush()
+        elif int(frac * 10) > self.last_decile:
+            self.last_decile = int(frac * 10)
+            sys.stderr.write(line + "\n")
+
+    def close(self) -> None:
+        if self.tty:
+            sys.stderr.write("\n")
+
+
+def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -> None:
+    """Render a prepared scene and write its images; `started` is when the command started
+    (time.perf_counter), for the summary. Raises Stop for any end but success."""
+    import signal
+
+    import numba
+
+    from renderer.assemble import assemble
+    from renderer.film import estimate_noise, noise_map_image, write_image
+    from renderer.render import kernels_cached, render_flat
+    from renderer.variants import features_of
+
+    load_renderer()
+    frame = scene.frame
+    if opts.threads is not None:
+        if opts.threads > numba.config.NUMBA_NUM_THREADS:
+            raise fail(f"error: --threads {opts.threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available")
+        numba.set_num_threads(opts.threads)
+    budgeted = scene.budget_seconds is not None or opts.noise is not None
+    # With a time or noise budget the sample count is only a cap.
+    target = opts.spp if opts.spp is not None else (BUDGET_SAMPLE_CAP if budgeted else frame.samples)
+
+    def render_key():
+        from renderer.state import RenderKey
+
+        assert scene.fingerprint is not None  # prepare computes it for --resume and --save-state
+        return RenderKey(
+            scene.fingerprint,
+            frame.width,
+            frame.height,
+            opts.max_depth if opts.max_depth is not None else frame.max_depth,
+            opts.seed if opts.seed is not None else frame.seed,
+        )
+
+    film = None
+    if opts.resume is not None:
+        from renderer.state import load_state
+
+        try:
+            film = load_state(opts.resume, render_key())
+        except (OSError, ValueError, KeyError) as exc:
+            raise fail(f"error: --resume: {exc}")
+        say(f"resuming {opts.resume}: {film.samples} samples per pixel already rendered", err=True)
+    stop = {"requested": False}
+
+    def on_interrupt(signum, _stack_frame):
+        if stop["requested"]:
+            raise KeyboardInterrupt
+        stop["requested"] = True
+        sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
+
+    flat = assemble(scene.tables)
+    features = features_of(flat)
+    if opts.explain:
+        say(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
+    if not kernels_cached(features):
+        say(
+            f"compiling the renderer for this feature set ({features.tag}): 10 to 20 seconds on 2 cores, once; "
+            f"cached in {numba.config.CACHE_DIR}",
+            err=True,
+        )
+    previous = signal.signal(signal.SIGINT, on_interrupt)
+    bar = Progress(target, scene.budget_seconds, opts.noise)
+    try:
+        result = render_flat(
+            flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
+            should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
+            noise_target=opts.noise, features=features,
+        )
+    except ValueError as exc:
+        failure = str(exc)
+    else:
+        failure = None
+    finally:
+        bar.close()
+        signal.signal(signal.SIGINT, previous)
+    if failure is not None:
+        raise fail(f"error: {opts.scene}: {failure}")
+    stats, film = result.stats, result.film
+    if film.samples == 0:
+        say("interrupted before the first pass finished: nothing to save", err=True)
+        raise Stop(130)
+    image = film.mean()
+    write_image(opts.out, image)
+    if opts.hdr is not None:
+        write_image(opts.hdr, image)
+    estimate = estimate_noise(film)
+    if opts.noise_map is not None:
+        write_image(opts.noise_map, noise_map_image(estimate))
+    if opts.save_state is not None:
+        from renderer.state import save_state as write_state
+
+        write_state(opts.save_state, film, render_key())
+    total = time.perf_counter() - started
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
+    say(
+        f"wrote {written}: {film.width}x{film.height}, {film.samples} spp, {fmt_seconds(stats.seconds)} rendering "
+        f"({fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
+    )
+    wx, wy = estimate.worst_pixel
+    if film.samples < 2:
+        say("noise: not estimated (it takes at least 2 samples per pixel)")
+    else:
+        say(
+            f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
+            f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
+        )
+    if stats.stop_reason == "time":
+        say(f"stopped: the {opts.time_budget} time budget is spent", err=True)
+    elif stats.stop_reason == "noise":
+        say(f"stopped: the estimated noise {100 * stats.noise:.2f}% is below the {100 * opts.noise:.2f}% target", err=True)
+    elif budgeted and not stats.interrupted:
+        say(f"stopped at the cap of {target} samples per pixel before the budget was reached", err=True)
+    if stats.bad_samples:
+        say(f"warning: {stats.bad_samples} samples were not finite and were left out (please report this scene)", err=True)
+    if stats.interrupted:
+        say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
+        raise Stop(130)

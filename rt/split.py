@@ -1,0 +1,230 @@
+"""The `rt render` program in two processes: one reads the scene while the other loads the renderer.
+
+A render starts with two jobs that do not depend on each other, both Python bytecode, so two
+threads would only take turns on the interpreter lock:
+
+- the front half (render_job.prepare): parsing the command line (typer, which imports pydantic
+  for it), then reading, checking and flattening the scene (PyYAML, pydantic, numpy): about
+  0.3 s for bouncing spheres on a 2-core machine, 0.6 s for the final scene;
+- loading the renderer (render_job.load_renderer): importing Numba and its first-call set-up,
+  about 0.4 s.
+
+So the program forks at its start. The child runs the command line as usual; when `rt render`
+has prepared the scene, the child hands the options and the scene's tables to the parent
+through a pipe (`FrontEnd.hand_over`) and ends. Meanwhile the parent loads the renderer; it
+then renders what it received (render_job.render_prepared). Whatever the child prints (help,
+usage errors, the scene's errors, `--explain`) it prints itself, before it hands over, and the
+parent ends with the child's exit status when there is nothing to render.
+
+The split changes nothing but the time. If the child fails in any other way (killed, an
+unexpected exception, an answer that does not unpickle), the parent runs the whole command
+line itself, so every error surfaces as it does in one process. Ctrl-C reaches both processes
+(a terminal signals the whole process group): the child ignores it and the parent, which
+stops, kills it. No child is started where it cannot gain: on one core, or in a process that
+already imported Numba (`rt.cli.app` called from Python runs both halves in its own process).
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import select
+import signal
+import sys
+import threading
+from typing import TYPE_CHECKING, Any, Optional
+
+if TYPE_CHECKING:
+    from .render_job import PreparedScene, RenderOptions
+
+# Set in the front-end child only: `rt render` hands its prepared scene to it.
+front_end: Optional[FrontEnd] = None
+
+
+def can_split(argv: list[str]) -> bool:
+    """Whether `rt` with these arguments runs in two processes to any gain: `rt render`, in a
+    fresh process (Numba not yet imported, so there is start-up to overlap) with one thread (a
+    fork copies only the calling thread), and a second core for the child to run on."""
+    if argv[1:2] != ["render"] or not hasattr(os, "fork"):
+        return False
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return cores > 1 and "numba" not in sys.modules and threading.active_count() == 1
+
+
+def run() -> int:
+    """Run the `rt` command line split in two processes; the exit status.
+
+    Only the child imports typer and the command line (and pydantic, which typer's parsing
+    imports): the parent needs neither unless the child fails.
+    """
+    _flush()  # a fork copies unwritten output buffers
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(read_end)
+        _front_end(write_end)  # never returns
+    os.close(write_end)
+    return _back_end(_Child(read_end, pid))
+
+
+def _run_command_line() -> None:
+    from .cli import app
+
+    app(prog_name="rt")  # ends in SystemExit
+
+
+class FrontEnd:
+    """The child's end of the pipe: one message, ("render", (options, scene, started)) or ("exit", status)."""
+
+    def __init__(self, fd: int):
+        self.fd = fd
+        self.sent = False
+
+    def hand_over(self, opts: RenderOptions, scene: PreparedScene, started: float) -> None:
+        """Give the prepared render to the parent; `started` is time.perf_counter() when the
+        command started (the same clock in both processes)."""
+        self._send(("render", (opts, scene, started)))
+
+    def _send(self, message: tuple[str, Any]) -> None:
+        data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        _flush()  # what this process printed comes before anything the parent prints
+        with os.fdopen(self.fd, "wb") as pipe:
+            pipe.write(data)
+        self.sent = True
+
+
+def _front_end(fd: int) -> None:
+    global front_end
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    front_end = FrontEnd(fd)
+    status: Optional[int] = None
+    try:
+        _run_command_line()
+    except SystemExit as exc:
+        status = _exit_status(exc.code)
+    except BaseException:  # noqa: BLE001 - the parent runs the command itself and shows the error
+        pass
+    try:
+        if status is not None and not front_end.sent:
+            front_end._send(("exit", status))
+    finally:
+        _flush()
+        # No interpreter shutdown: it would run the parent's exit handlers.
+        os._exit(0)
+
+
+class _Child:
+    """The parent's end: the front-end child's pid and the pipe from it."""
+
+    def __init__(self, fd: int, pid: int):
+        self.fd: int = fd
+        self.pid: Optional[int] = pid
+
+    def done(self) -> bool:
+        """Whether the child has written its message or ended (a read would not wait long)."""
+        return bool(select.select([self.fd], [], [], 0)[0])
+
+    def message(self) -> Optional[tuple[str, Any]]:
+        """The child's message once it has ended, or None if it gave none (it failed)."""
+        with os.fdopen(self.fd, "rb") as pipe:
+            self.fd = -1
+            data = pipe.read()
+        self._reap()
+        # The child writes only whole messages; one cut short (the child killed while writing)
+        # does not unpickle.
+        try:
+            message = pickle.loads(data) if data else None
+        except Exception:
+            return None
+        if isinstance(message, tuple) and len(message) == 2 and message[0] in ("render", "exit"):
+            return message
+        return None
+
+    def close(self) -> None:
+        """Stop and reap the child if it is still there (this process is leaving early)."""
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+        if self.pid is not None:
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            self._reap()
+
+    def _reap(self) -> None:
+        if self.pid is not None:
+            try:
+                os.waitpid(self.pid, 0)
+            except ChildProcessError:  # reaped already (a parent that ignores SIGCHLD)
+                pass
+            self.pid = None
+
+
+_PENDING = ("pending", None)
+
+
+def _back_end(child: _Child) -> int:
+    from .render_job import load_renderer, render_prepared
+
+    try:
+        import numba  # noqa: F401 - the larger part of loading the renderer
+
+        # Help, a usage error or an invalid scene has usually ended the child by now: then there
+        # is nothing to render, and no need to load more.
+        message = child.message() if child.done() else _PENDING
+        if message is _PENDING or (message is not None and message[0] == "render"):
+            load_renderer()
+        if message is _PENDING:
+            message = child.message()
+    except KeyboardInterrupt:
+        return 130  # as typer does for the command line
+    finally:
+        child.close()
+    if message is None:  # the child failed: the whole command line here
+        _run_command_line()
+        return 0
+    kind, payload = message
+    if kind == "exit":
+        return payload
+    opts, scene, started = payload
+    return _as_program(render_prepared, opts, scene, started)
+
+
+def _as_program(function, *args) -> int:
+    """Call `function` the way typer runs a command of the program: its exit status."""
+    import errno
+
+    from .render_job import Stop
+
+    try:
+        function(*args)
+    except Stop as stop:
+        return stop.status
+    except KeyboardInterrupt:
+        return 130
+    except OSError as exc:
+        if exc.errno != errno.EPIPE:
+            raise
+        # The reader went away (`rt render ... | head`): end quietly, as typer does.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    return 0
+
+
+def _exit_status(code: object) -> int:
+    """The process status of SystemExit(code), as the interpreter would set it."""
+    if code is None:
+        return 0
+    if isinstance(code, int):
+        return code
+    sys.stderr.write(f"{code}\n")
+    return 1
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass

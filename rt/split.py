@@ -119,17 +119,22 @@ class _Child:
     def __init__(self, fd: int, pid: int):
         self.fd: int = fd
         self.pid: Optional[int] = pid
+        self.ending = False  # the child closed the pipe: it ends by itself
 
     def done(self) -> bool:
         """Whether the child has written its message or ended (a read would not wait long)."""
         return bool(select.select([self.fd], [], [], 0)[0])
 
     def message(self) -> Optional[tuple[str, Any]]:
-        """The child's message once it has ended, or None if it gave none (it failed)."""
+        """The child's message once it has closed the pipe, or None if it gave none (it failed).
+
+        The child is reaped later, by `close`: the system takes a few milliseconds to release its
+        memory, and the render need not wait for that.
+        """
         with os.fdopen(self.fd, "rb") as pipe:
             self.fd = -1
             data = pipe.read()
-        self._reap()
+        self.ending = True
         # The child writes only whole messages; one cut short (the child killed while writing)
         # does not unpickle.
         try:
@@ -141,24 +146,22 @@ class _Child:
         return None
 
     def close(self) -> None:
-        """Stop and reap the child if it is still there (this process is leaving early)."""
+        """Stop the child if it is still there (this process is leaving early), and reap it."""
         if self.fd >= 0:
             os.close(self.fd)
             self.fd = -1
-        if self.pid is not None:
+        if self.pid is None:
+            return
+        if not self.ending:
             try:
                 os.kill(self.pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-            self._reap()
-
-    def _reap(self) -> None:
-        if self.pid is not None:
-            try:
-                os.waitpid(self.pid, 0)
-            except ChildProcessError:  # reaped already (a parent that ignores SIGCHLD)
-                pass
-            self.pid = None
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:  # reaped already (a parent that ignores SIGCHLD)
+            pass
+        self.pid = None
 
 
 _PENDING = ("pending", None)
@@ -168,27 +171,28 @@ def _back_end(child: _Child) -> int:
     from .render_job import load_renderer, render_prepared
 
     try:
-        import numba  # noqa: F401 - the larger part of loading the renderer
+        try:
+            import numba  # noqa: F401 - the larger part of loading the renderer
 
-        # Help, a usage error or an invalid scene has usually ended the child by now: then there
-        # is nothing to render, and no need to load more.
-        message = child.message() if child.done() else _PENDING
-        if message is _PENDING or (message is not None and message[0] == "render"):
-            load_renderer()
-        if message is _PENDING:
-            message = child.message()
-    except KeyboardInterrupt:
-        return 130  # as typer does for the command line
+            # Help, a usage error or an invalid scene has usually ended the child by now: then
+            # there is nothing to render, and no need to load more.
+            message = child.message() if child.done() else _PENDING
+            if message is _PENDING or (message is not None and message[0] == "render"):
+                load_renderer()
+            if message is _PENDING:
+                message = child.message()
+        except KeyboardInterrupt:
+            return 130  # as typer does for the command line
+        if message is None:  # the child failed: the whole command line here
+            _run_command_line()
+            return 0
+        kind, payload = message
+        if kind == "exit":
+            return payload
+        opts, scene, started = payload
+        return _as_program(render_prepared, opts, scene, started)
     finally:
         child.close()
-    if message is None:  # the child failed: the whole command line here
-        _run_command_line()
-        return 0
-    kind, payload = message
-    if kind == "exit":
-        return payload
-    opts, scene, started = payload
-    return _as_program(render_prepared, opts, scene, started)
 
 
 def _as_program(function, *args) -> int:

@@ -173,6 +173,24 @@ def test_close_stops_a_child_still_working():
         os.waitpid(pid, 0)  # already reaped
 
 
+def test_a_child_that_has_sent_its_message_is_left_to_end_by_itself_and_reaped(tmp_path):
+    mark = tmp_path / "ended"
+
+    def body(fd):
+        os.write(fd, pickle.dumps(("exit", 0)))
+        os.close(fd)
+        __import__("time").sleep(0.2)
+        mark.write_text("ended by itself")
+
+    child = fork_child(body)
+    pid = child.pid
+    assert child.message() == ("exit", 0)
+    child.close()
+    assert mark.read_text() == "ended by itself"  # not killed
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, 0)  # already reaped
+
+
 def test_exit_statuses_are_the_interpreters():
     assert [split._exit_status(c) for c in (None, 0, 2, 130)] == [0, 0, 2, 130]
 

@@ -20,8 +20,11 @@ The split changes nothing but the time. If the child fails in any other way (kil
 unexpected exception, an answer that does not unpickle), the parent runs the whole command
 line itself, so every error surfaces as it does in one process. Ctrl-C reaches both processes
 (a terminal signals the whole process group): the child ignores it and the parent, which
-stops, kills it. No child is started where it cannot gain: on one core, or in a process that
-already imported Numba (`rt.cli.app` called from Python runs both halves in its own process).
+stops, kills it; a parent ended otherwise (SIGTERM, SIGKILL) takes the child with it on Linux.
+If loading the renderer fails, the child's own output and status come first, as in one
+process, which reads the scene before it loads Numba. No child is started where it cannot
+gain: on one core, or in a process that already imported Numba (`rt.cli.app` called from
+Python runs both halves in its own process).
 """
 
 from __future__ import annotations
@@ -58,11 +61,12 @@ def run() -> int:
     imports): the parent needs neither unless the child fails.
     """
     _flush()  # a fork copies unwritten output buffers
+    parent = os.getpid()
     read_end, write_end = os.pipe()
     pid = os.fork()
     if pid == 0:
         os.close(read_end)
-        _front_end(write_end)  # never returns
+        _front_end(write_end, parent)  # never returns
     os.close(write_end)
     return _back_end(_Child(read_end, pid))
 
@@ -93,9 +97,10 @@ class FrontEnd:
         self.sent = True
 
 
-def _front_end(fd: int) -> None:
+def _front_end(fd: int, parent: int) -> None:
     global front_end
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _end_with(parent)
     front_end = FrontEnd(fd)
     status: Optional[int] = None
     try:
@@ -123,7 +128,10 @@ class _Child:
 
     def done(self) -> bool:
         """Whether the child has written its message or ended (a read would not wait long)."""
-        return bool(select.select([self.fd], [], [], 0)[0])
+        # poll, not select: select cannot watch a descriptor numbered 1024 or more.
+        poller = select.poll()
+        poller.register(self.fd, select.POLLIN)
+        return bool(poller.poll(0))
 
     def message(self) -> Optional[tuple[str, Any]]:
         """The child's message once it has closed the pipe, or None if it gave none (it failed).
@@ -152,43 +160,60 @@ class _Child:
             self.fd = -1
         if self.pid is None:
             return
+        pid, self.pid = self.pid, None
+        try:
+            if os.waitpid(pid, os.WNOHANG)[0] == pid:
+                return  # it had ended
+        except ChildProcessError:
+            return  # reaped by the system already (a parent that ignores SIGCHLD): its pid may be reused
         if not self.ending:
             try:
-                os.kill(self.pid, signal.SIGKILL)
+                os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
         try:
-            os.waitpid(self.pid, 0)
-        except ChildProcessError:  # reaped already (a parent that ignores SIGCHLD)
+            os.waitpid(pid, 0)
+        except ChildProcessError:
             pass
-        self.pid = None
 
 
 _PENDING = ("pending", None)
 
 
 def _back_end(child: _Child) -> int:
-    from .render_job import load_renderer, render_prepared
-
+    message: Optional[tuple[str, Any]] = _PENDING
     try:
         try:
             import numba  # noqa: F401 - the larger part of loading the renderer
 
+            from .render_job import load_renderer
+
             # Help, a usage error or an invalid scene has usually ended the child by now: then
             # there is nothing to render, and no need to load more.
-            message = child.message() if child.done() else _PENDING
+            if child.done():
+                message = child.message()
             if message is _PENDING or (message is not None and message[0] == "render"):
                 load_renderer()
             if message is _PENDING:
                 message = child.message()
         except KeyboardInterrupt:
             return 130  # as typer does for the command line
+        except Exception:
+            # Loading the renderer failed. What the child had to say (help, the scene's errors)
+            # comes first, with its status, as in one process, which reads the scene first.
+            if message is _PENDING:
+                message = child.message()
+            if message is not None and message[0] == "exit":
+                return message[1]
+            raise
         if message is None:  # the child failed: the whole command line here
             _run_command_line()
             return 0
         kind, payload = message
         if kind == "exit":
             return payload
+        from .render_job import render_prepared
+
         opts, scene, started = payload
         return _as_program(render_prepared, opts, scene, started)
     finally:
@@ -214,6 +239,22 @@ def _as_program(function, *args) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     return 0
+
+
+def _end_with(parent: int) -> None:
+    """Have the system kill this child when the parent ends (Linux), so a parent killed on its own
+    (SIGTERM, SIGKILL) leaves no child reading the scene and printing after it."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # the parent ended before the request took effect
+        os._exit(1)
 
 
 def _exit_status(code: object) -> int:

@@ -39,9 +39,18 @@ if mode:
         if os.getpid() != parent:
             if mode == "kill":
                 os.kill(os.getpid(), 9)
+            if mode == "sleep":
+                open(os.environ["PROBE_PID_FILE"], "w").write(str(os.getpid()))
+                __import__("time").sleep(60)
             raise RuntimeError("a bug in the front half")
         return prepare(opts)
     job.prepare = failing
+fds = int(os.environ.get("PROBE_OPEN_FDS") or 0)
+if fds:  # take the low descriptors, so the program's pipe gets one numbered above 1024
+    import resource
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, fds + 64), hard))
+    held = [os.dup(2) for _ in range(fds)]
 from rt.__main__ import run
 sys.argv = ["rt", *sys.argv[1:]]
 code = 0
@@ -55,8 +64,8 @@ sys.exit(code)
 HANDED = "handed over by the front end"
 
 
-def run_program(*args, cwd, fail=None):
-    env = dict(os.environ, PROBE_FAIL=fail or "")
+def run_program(*args, cwd, fail=None, **env_extra):
+    env = dict(os.environ, PROBE_FAIL=fail or "", **env_extra)
     return subprocess.run([sys.executable, "-c", PROBE, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
 
 
@@ -131,6 +140,55 @@ def test_when_the_front_half_dies_or_fails_the_parent_runs_the_whole_command(tmp
     assert HANDED not in out.stderr and "Traceback" not in out.stderr
     here = render_here(scene, "-o", str(tmp_path / "y.png"), "--hdr", str(tmp_path / "y.pfm"), *SCENE_ARGS)
     assert (tmp_path / "x.pfm").read_bytes() == (tmp_path / "y.pfm").read_bytes()
+
+
+def test_when_loading_the_renderer_fails_the_childs_output_and_status_come_first(tmp_path):
+    # NUMBA_NUM_THREADS=0 makes importing Numba fail; one process reads the scene first and
+    # reports its errors without ever importing Numba.
+    path = tmp_path / "bad.yaml"
+    path.write_text("shapes:\n  - {type: sphere, center: [0, 0, 0], radious: 1}\n")
+    out = run_program("render", str(path), cwd=tmp_path, NUMBA_NUM_THREADS="0")
+    assert out.returncode == 1, out.stderr
+    assert "bad.yaml:2:39" in out.stderr and "Traceback" not in out.stderr
+    help_out = run_program("render", "--help", cwd=tmp_path, NUMBA_NUM_THREADS="0")
+    assert help_out.returncode == 0 and "Usage: rt render" in help_out.stdout and "Traceback" not in help_out.stderr
+
+
+def test_the_program_works_when_its_pipe_gets_a_descriptor_above_1024(tmp_path):
+    import resource
+
+    if resource.getrlimit(resource.RLIMIT_NOFILE)[1] < 1200:
+        pytest.skip("the hard limit on open files is below 1200")
+    scene = str(ROOT / "scenes" / "cornell_smoke.yaml")
+    out = run_program("render", scene, "-o", "x.png", *SCENE_ARGS, cwd=tmp_path, PROBE_OPEN_FDS="1100")
+    assert out.returncode == 0, out.stderr
+    assert HANDED in out.stderr
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the child ends with its parent through prctl (Linux)")
+def test_a_parent_killed_alone_takes_the_child_with_it(tmp_path):
+    import time
+
+    pid_file = tmp_path / "child.pid"
+    env = dict(os.environ, PROBE_FAIL="sleep", PROBE_PID_FILE=str(pid_file))
+    proc = subprocess.Popen([sys.executable, "-c", PROBE, "render", str(ROOT / "scenes" / "cornell_smoke.yaml")], cwd=tmp_path,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while not pid_file.exists() or not pid_file.read_text():
+        assert time.time() < deadline and proc.poll() is None
+        time.sleep(0.05)
+    child = int(pid_file.read_text())
+    proc.kill()  # SIGKILL: the parent cannot pass anything on
+    proc.wait()
+    deadline = time.time() + 10
+    while time.time() < deadline:
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(child, signal.SIGKILL)
+    pytest.fail("the front-end child outlived its parent")
 
 
 def fork_child(body):

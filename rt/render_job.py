@@ -149,7 +149,8 @@ def load_renderer() -> None:
     """Import Numba and the renderer, and have the tree builders' machine code ready.
 
     This is most of the back half's start (about 0.4 s on a 2-core machine): the `rt` program
-    does it while the front half runs in another process.
+    does it while the front half runs in another process. In one process there is nothing to
+    overlap, and `render_prepared` leaves it to the first tree build.
     """
     from renderer.bvh import load_builders
 
@@ -207,7 +208,6 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
     from renderer.render import kernels_cached, render_flat
     from renderer.variants import features_of
 
-    load_renderer()
     frame = scene.frame
     if opts.threads is not None:
         if opts.threads > numba.config.NUMBA_NUM_THREADS:

@@ -6,9 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from renderer.compile import compile_scene
+from renderer.compile import compile_scene, with_width
 from renderer.film import Film, read_pfm, to_srgb8, write_image
-from renderer.compile import with_width
 from renderer.render import render
 from scenefmt.validation import loads
 

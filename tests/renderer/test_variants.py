@@ -7,8 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from renderer.compile import compile_scene
-from renderer.compile import with_width
+from renderer.compile import compile_scene, with_width
 from renderer.render import render
 from renderer.variants import GENERAL, KernelFeatures, features_of, kernels_for
 from scenefmt.effects import summarize

@@ -5,6 +5,8 @@ only, so a kernel that inlines code from another file would keep stale machine c
 that file changes. The cache therefore lives in a folder named after a hash of every source
 with compiled code (and the Numba version): any change gives a fresh cache, and an installation in a
 read-only place still caches. Set NUMBA_CACHE_DIR to choose the place yourself.
+
+Importing this also has cached code load without the compiler's set-up (cache_load.py).
 """
 
 
@@ -13,6 +15,8 @@ import os
 from pathlib import Path
 
 import numba
+
+from . import cache_load
 
 
 def _cache_dir() -> Path:
@@ -43,3 +47,6 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
     # Where the home folder is read-only, Numba's own choice of cache folder is kept.
     if _writable(_dir):
         numba.config.CACHE_DIR = str(_dir)
+
+# Cached functions load without the compiler's set-up, for the Numba versions that was checked on.
+cache_load.install()

@@ -8,6 +8,7 @@ from . import layout as L
 from .bvh import WIDTH, build_bvh, single_leaf, widen
 from .flat import FlatScene
 from .tables import SceneTables
+from .textures import perlin_tables
 
 
 def _inverse_affine(m: np.ndarray) -> np.ndarray:
@@ -26,18 +27,19 @@ def assemble(tables: SceneTables, use_bvh: bool = True) -> FlatScene:
     blas_root, blas_lo, blas_hi = [], [], []
     for tree_tables in tables.blas:
         blas_root.append(node_count)
-        if not len(tree_tables.kind):
+        if not len(tree_tables):
             blas_lo.append(np.full(3, np.inf))
             blas_hi.append(np.full(3, -np.inf))
             continue
-        tree = build_tree(tree_tables.lo, tree_tables.hi)
+        kind, rows, mat, lo, hi = tree_tables.as_numpy()
+        tree = build_tree(lo, hi)
         blas_lo.append(tree.lo[0])
         blas_hi.append(tree.hi[0])
         base = prim_count
         # The tree's rows in leaf order.
-        prim_kind.append(tree_tables.kind[tree.order])
-        prim_rows.append(tree_tables.rows[tree.order])
-        prim_mat.append(tree_tables.mat[tree.order])
+        prim_kind.append(kind[tree.order])
+        prim_rows.append(rows[tree.order])
+        prim_mat.append(mat[tree.order])
         prim_count += len(tree.order)
         wide = widen(tree)
         child = wide.child
@@ -82,9 +84,10 @@ def assemble(tables: SceneTables, use_bvh: bool = True) -> FlatScene:
     tex_child = np.array([r[3] for r in tex_rows], np.int32).reshape(n_tex, 2)
     n_mat = len(mat_rows)
     texels = np.concatenate(tables.texel_chunks).astype(np.float32) if tables.texel_chunks else np.zeros((1, 3), np.float32)
-    if tables.noise:
-        noise_perm = np.stack([p for p, _ in tables.noise]).astype(np.int32)
-        noise_vec = np.stack([v for _, v in tables.noise]).astype(np.float64)
+    if tables.noise_seeds:
+        noise = [perlin_tables(seed) for seed in tables.noise_seeds]
+        noise_perm = np.stack([p for p, _ in noise]).astype(np.int32)
+        noise_vec = np.stack([v for _, v in noise]).astype(np.float64)
     else:
         noise_perm = np.zeros((1, 3, 256), np.int32)
         noise_vec = np.zeros((1, 256, 3), np.float64)
@@ -114,6 +117,6 @@ def assemble(tables: SceneTables, use_bvh: bool = True) -> FlatScene:
         texels=texels,
         noise_perm=noise_perm,
         noise_vec=noise_vec,
-        camera=tables.camera,
-        background=tables.background,
+        camera=np.array(tables.camera, np.float64),
+        background=np.array(tables.background, np.float64),
     )

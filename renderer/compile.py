@@ -5,6 +5,10 @@ triangle, disk or box is still made of parallelograms, a box kept axis-aligned i
 row, a sphere under a similarity is still a sphere), so the common case pays nothing for
 instancing. Groups placed by instances become
 shared bottom-level trees; a sphere under a non-uniform scale becomes a one-shape instance.
+
+The arithmetic is on Python floats, not numpy arrays: scenes have thousands of rows, and numpy's
+per-call cost on 3-vectors made flattening six times as slow; and without numpy the `rt render`
+front end never imports it (0.07 s) for a scene without image textures (see tables.py).
 """
 
 from __future__ import annotations
@@ -13,8 +17,6 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Optional
 
-import numpy as np
-
 from scenefmt import affine
 from scenefmt.diagnostics import format_path
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode, TextureNode
@@ -22,9 +24,10 @@ from scenefmt.scene import SkyBackground
 
 from . import layout as L
 from .tables import SceneTables, TreeTables
-from .textures import load_image_texels, perlin_tables
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from .flat import FlatScene
 
 _BOX_FACES = (
@@ -38,24 +41,15 @@ _BOX_FACES = (
 )
 
 
-def _linear(m) -> np.ndarray:
-    return np.array([row[:3] for row in m], dtype=np.float64)
+Vec = tuple[float, float, float]
 
 
-def _apply(m, p) -> np.ndarray:
-    return np.array(affine.apply_point(m, p), dtype=np.float64)
+def _linear(m) -> tuple[Vec, Vec, Vec]:
+    """The 3x3 linear part of an affine transform, as rows."""
+    return tuple(tuple(float(x) for x in row[:3]) for row in m)  # type: ignore[return-value]
 
 
-def _similarity_scale(lin: np.ndarray) -> Optional[float]:
-    """s when lin = s * (an orthogonal matrix), else None."""
-    g = lin.T @ lin
-    s2 = g[0, 0]
-    if s2 <= 0 or not np.allclose(g, s2 * np.eye(3), rtol=1e-9, atol=1e-12 * s2):
-        return None
-    return math.sqrt(s2)
-
-
-def _cross(a, b) -> tuple[float, float, float]:
+def _cross(a, b) -> Vec:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
@@ -63,14 +57,46 @@ def _dot(a, b) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _mul(lin, v) -> tuple[float, float, float]:
+def _add(a, b) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def _sub(a, b) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _scale(a, s: float) -> Vec:
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def _unit(a) -> Vec:
+    length = math.sqrt(_dot(a, a))
+    return (a[0] / length, a[1] / length, a[2] / length)
+
+
+def _mul(lin, v) -> Vec:
     """lin @ v for a 3x3 matrix given as rows."""
     return tuple(_dot(row, v) for row in lin)  # type: ignore[return-value]
 
 
-# Planar rows are computed on Python floats, not numpy arrays: scenes have thousands of them (the
-# final scene's ground was 2400 box faces before boxes got rows of their own), and numpy's
-# per-call cost on 3-vectors made flattening them take six times as long.
+def _det(lin) -> float:
+    return _dot(lin[0], _cross(lin[1], lin[2]))
+
+
+def _similarity_scale(lin) -> Optional[float]:
+    """s when lin = s * (an orthogonal matrix), else None: lin^T lin = s^2 I within 1e-9."""
+    cols = [tuple(row[k] for row in lin) for k in range(3)]
+    s2 = _dot(cols[0], cols[0])
+    if s2 <= 0:
+        return None
+    for i in range(3):
+        for j in range(3):
+            target = s2 if i == j else 0.0
+            if not abs(_dot(cols[i], cols[j]) - target) <= 1e-12 * s2 + 1e-9 * abs(target):
+                return None
+    return math.sqrt(s2)
+
+
 def _planar_row(q, u, v, flip: bool) -> list[float]:
     n = _cross(u, v)
     nn = _dot(n, n)
@@ -99,19 +125,19 @@ class _Compiler:
         self.white_row: Optional[int] = None
         self.texel_chunks: list[np.ndarray] = []
         self.texel_count = 0
-        self.noise: list[tuple[np.ndarray, np.ndarray]] = []
+        self.noise_seeds: list[int] = []
         self.mat_rows: list[tuple] = []
         self.mat_ids: dict[int, int] = {}
         self.phase_ids: dict[int, int] = {}
         self.bnd_kind: list[int] = []
-        self.bnd_rows: list[np.ndarray] = []
+        self.bnd_rows: list[list[float]] = []
         self.blas: list[TreeTables] = []
         self.blas_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
         # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
         self.own_instance: dict[int, int] = {}
-        self.similarity_of: dict[tuple, tuple[np.ndarray, Optional[float]]] = {}
+        self.similarity_of: dict[tuple, tuple[tuple, Optional[float]]] = {}
 
     # --- textures and materials ----------------------------------------------------------------
 
@@ -132,6 +158,8 @@ class _Compiler:
             child = (self.texture(node.inputs["even"]), self.texture(node.inputs["odd"]))
         elif m.type == "image":
             kind = L.TEX_IMAGE
+            from .textures import load_image_texels  # numpy and Pillow, for scenes with images only
+
             try:
                 texels = load_image_texels(node.image_path, m.colorspace)
             except ValueError as exc:
@@ -143,9 +171,9 @@ class _Compiler:
         else:
             kind = L.TEX_NOISE
             form = {"plain": L.NOISE_PLAIN, "turbulence": L.NOISE_TURBULENCE, "marble": L.NOISE_MARBLE}[m.form]
-            param = (m.scale, float(form), float(m.octaves), float(len(self.noise)))
+            param = (m.scale, float(form), float(m.octaves), float(len(self.noise_seeds)))
             color = m.color
-            self.noise.append(perlin_tables(m.seed))
+            self.noise_seeds.append(m.seed)  # assemble makes its tables
         self.tex_rows[index] = (kind, tuple(color), tuple(param), tuple(child))
         return index
 
@@ -192,43 +220,46 @@ class _Compiler:
 
     # --- primitives ----------------------------------------------------------------------------
 
-    def similarity(self, m) -> tuple[np.ndarray, Optional[float]]:
+    def similarity(self, m) -> tuple[tuple, Optional[float]]:
         """(linear part, similarity scale or None) of m, cached: a scene's many spheres share a
-        few transforms, and the check costs tens of microseconds in numpy."""
+        few transforms."""
         known = self.similarity_of.get(m)
         if known is None:
             lin = _linear(m)
             known = self.similarity_of[m] = (lin, _similarity_scale(lin))
         return known
 
-    def sphere_row(self, shape: ShapeNode, m) -> Optional[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+    def sphere_row(self, shape: ShapeNode, m) -> Optional[tuple[int, list, Vec, Vec]]:
         """(kind, row, lo, hi) of a sphere baked through m, or None if m is not a similarity."""
         lin, s = self.similarity(m)
         if s is None:
             return None
-        rot = (lin / s).T  # object_from_world rotation for the uv frame
+        # The object_from_world rotation for the uv frame, (lin / s) transposed, row by row.
+        rot = [lin[j][i] / s for i in range(3) for j in range(3)]
         model = shape.model
         r = model.radius * s
-        row = np.zeros(L.PRIM_WIDTH)
+        row = [0.0] * L.PRIM_WIDTH
         row[3] = r
         if model.type == "sphere":
-            c = _apply(m, model.center)
+            c = affine.apply_point(m, model.center)
             row[0:3] = c
-            row[4:13] = rot.reshape(9)
-            return L.SPHERE, row, c - r, c + r
-        c0, c1 = _apply(m, model.center0), _apply(m, model.center1)
+            row[4:13] = rot
+            return L.SPHERE, row, _sub(c, (r, r, r)), _add(c, (r, r, r))
+        c0, c1 = affine.apply_point(m, model.center0), affine.apply_point(m, model.center1)
         span = self.shutter_close - self.shutter_open
-        vel = (c1 - c0) / span if span > 0 else np.zeros(3)
-        row[0:3] = c0 - self.shutter_open * vel
+        vel = tuple((c1[k] - c0[k]) / span for k in range(3)) if span > 0 else (0.0, 0.0, 0.0)
+        row[0:3] = _sub(c0, _scale(vel, self.shutter_open))
         row[4:7] = vel
-        row[7:16] = rot.reshape(9)
+        row[7:16] = rot
         if span == 0:
             c1 = c0
-        return L.MOVING_SPHERE, row, np.minimum(c0, c1) - r, np.maximum(c0, c1) + r
+        lo = tuple(min(c0[k], c1[k]) - r for k in range(3))
+        hi = tuple(max(c0[k], c1[k]) + r for k in range(3))
+        return L.MOVING_SPHERE, row, lo, hi
 
     def planar_rows(self, shape: ShapeNode, m) -> list[tuple[int, list, tuple, tuple]]:
-        lin = tuple(row[:3] for row in m)
-        flip = np.linalg.det(_linear(m)) < 0
+        lin = _linear(m)
+        flip = _det(lin) < 0
         model = shape.model
         out = []
 
@@ -242,27 +273,24 @@ class _Compiler:
         if model.type == "quad":
             add(L.QUAD, model.q, model.u, model.v, ((0, 0), (1, 0), (0, 1), (1, 1)))
         elif model.type == "triangle":
-            p0, p1, p2 = (np.asarray(p, float) for p in model.vertices)
-            add(L.TRIANGLE, p0, p1 - p0, p2 - p0, ((0, 0), (1, 0), (0, 1)))
+            p0, p1, p2 = (tuple(float(x) for x in p) for p in model.vertices)
+            add(L.TRIANGLE, p0, _sub(p1, p0), _sub(p2, p0), ((0, 0), (1, 0), (0, 1)))
         elif model.type == "disk":
-            n = np.asarray(model.normal, float)
-            n = n / np.linalg.norm(n)
-            helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-            a = np.cross(helper, n)
-            a /= np.linalg.norm(a)
-            b = np.cross(n, a)  # a x b = n
+            n = _unit(tuple(float(x) for x in model.normal))
+            helper = (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0)
+            a = _unit(_cross(helper, n))
+            b = _cross(n, a)  # a x b = n
             r = model.radius
-            lin3 = _linear(m)
-            q2, u2, v2 = _apply(m, model.center), lin3 @ (a * r), lin3 @ (b * r)
-            ext = np.sqrt(u2 * u2 + v2 * v2)
-            out.append((L.DISK, _planar_row(q2, u2, v2, flip), q2 - ext, q2 + ext))
+            q2, u2, v2 = affine.apply_point(m, model.center), _mul(lin, _scale(a, r)), _mul(lin, _scale(b, r))
+            ext = tuple(math.sqrt(u2[k] * u2[k] + v2[k] * v2[k]) for k in range(3))
+            out.append((L.DISK, _planar_row(q2, u2, v2, flip), _sub(q2, ext), _add(q2, ext)))
         else:  # box
-            lo, hi = np.asarray(model.min, float), np.asarray(model.max, float)
-            size = hi - lo
+            lo, hi = tuple(float(x) for x in model.min), tuple(float(x) for x in model.max)
+            size = _sub(hi, lo)
             for corner, u_axis, v_axis in _BOX_FACES:
-                q = np.where(np.array(corner) > 0, hi, lo)
-                u = np.array(u_axis) * size
-                v = np.array(v_axis) * size
+                q = tuple(hi[k] if corner[k] > 0 else lo[k] for k in range(3))
+                u = tuple(u_axis[k] * size[k] for k in range(3))
+                v = tuple(v_axis[k] * size[k] for k in range(3))
                 add(L.QUAD, q, u, v, ((0, 0), (1, 0), (0, 1), (1, 1)))
         return out
 
@@ -304,11 +332,7 @@ class _Compiler:
             return False
         if mat is not None:
             for kind, row, lo, hi in surface:
-                tables.kind.append(kind)
-                tables.rows.append(row)
-                tables.mat.append(mat)
-                tables.lo.append(lo)
-                tables.hi.append(hi)
+                tables.add(kind, row, mat, lo, hi)
         if shape.interior is not None:
             # A medium's boundary is tested as planes: a box row's faces are made for it.
             rows = self.planar_rows(shape, m) if surface[0][0] == L.BOX else surface
@@ -316,18 +340,16 @@ class _Compiler:
             for kind, row, _, _ in rows:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
-            medium = np.zeros(L.PRIM_WIDTH)
+            medium = [0.0] * L.PRIM_WIDTH
             medium[0] = -1.0 / shape.interior.model.density
             medium[1] = start
             medium[2] = len(rows)
             # A serial number independent of the BVH's row order keys the medium's random numbers.
             medium[3] = self.media_count
             self.media_count += 1
-            tables.kind.append(L.MEDIUM)
-            tables.rows.append(medium)
-            tables.mat.append(self.phase(shape.interior))
-            tables.lo.append(np.min([r[2] for r in rows], axis=0))
-            tables.hi.append(np.max([r[3] for r in rows], axis=0))
+            lo = tuple(min(r[2][k] for r in rows) for k in range(3))
+            hi = tuple(max(r[3][k] for r in rows) for k in range(3))
+            tables.add(L.MEDIUM, medium, self.phase(shape.interior), lo, hi)
         return True
 
     # --- groups and instances ------------------------------------------------------------------
@@ -341,7 +363,7 @@ class _Compiler:
             self.blas.append(tables)
             self.fill(group, tables)
         blas = self.blas_of_group[key]
-        if self.blas[blas].kind:
+        if len(self.blas[blas]):
             self.instances.append((blas, world_from_group))
         for member in group.members:
             if isinstance(member, InstanceNode):
@@ -370,55 +392,53 @@ class _Compiler:
             if not 0 <= tex < n_tex:
                 raise AssertionError(f"material of kind {kind} refers to texture row {tex} of {n_tex}")
         return SceneTables(
-            blas=[tables.packed() for tables in self.blas],
+            blas=self.blas,
             instances=[(blas, m, affine.is_identity(m)) for blas, m in self.instances],
             tex_rows=self.tex_rows,
             mat_rows=[(kind, tex, param, self.reads_uv(tex)) for kind, tex, param in self.mat_rows],
             texel_chunks=self.texel_chunks,
-            noise=self.noise,
+            noise_seeds=self.noise_seeds,
             bnd_kind=self.bnd_kind,
             bnd_rows=self.bnd_rows,
-            camera=camera_array(self.graph),
-            background=background_array(self.graph),
+            camera=camera_values(self.graph),
+            background=background_values(self.graph),
         )
 
 
-def camera_array(graph: SceneGraph) -> np.ndarray:
-    """The camera as the kernels read it (the second book's thin-lens camera)."""
+def camera_values(graph: SceneGraph) -> tuple[float, ...]:
+    """The camera as the kernels read it (the second book's thin-lens camera), 21 values: origin,
+    pixel00, du, dv, the lens disk's two axes, lens radius, shutter open and close."""
     cam, image = graph.camera, graph.image
     width, height = image.width, image.pixel_height
-    center = np.asarray(cam.look_from, float)
+    center = tuple(float(x) for x in cam.look_from)
     focus = cam.focus
     viewport_h = 2.0 * math.tan(math.radians(cam.vfov) / 2.0) * focus
     viewport_w = viewport_h * (width / height)
-    w = center - np.asarray(cam.look_at, float)
-    w /= np.linalg.norm(w)
-    u = np.cross(np.asarray(cam.up, float), w)
-    u /= np.linalg.norm(u)
-    v = np.cross(w, u)
-    du = viewport_w * u / width
-    dv = -viewport_h * v / height
-    upper_left = center - focus * w - viewport_w * u / 2 + viewport_h * v / 2
-    pixel00 = upper_left + 0.5 * (du + dv)
+    w = _unit(_sub(center, cam.look_at))
+    u = _unit(_cross(cam.up, w))
+    v = _cross(w, u)
+    du = tuple(viewport_w * u[k] / width for k in range(3))
+    dv = tuple(-viewport_h * v[k] / height for k in range(3))
+    upper_left = tuple(center[k] - focus * w[k] - viewport_w * u[k] / 2 + viewport_h * v[k] / 2 for k in range(3))
+    pixel00 = tuple(upper_left[k] + 0.5 * (du[k] + dv[k]) for k in range(3))
     radius = cam.lens_radius
-    out = np.zeros(21)
-    out[0:3], out[3:6], out[6:9], out[9:12] = center, pixel00, du, dv
-    out[12:15], out[15:18] = u * radius, v * radius
-    out[18] = radius
-    out[19], out[20] = graph.shutter.open, graph.shutter.close
-    return out
+    return (*center, *pixel00, *du, *dv, *_scale(u, radius), *_scale(v, radius), float(radius),
+            float(graph.shutter.open), float(graph.shutter.close))
 
 
-def background_array(graph: SceneGraph) -> np.ndarray:
+def camera_array(graph: SceneGraph) -> np.ndarray:
+    """`camera_values` as the (21,) float64 array of the flat scene."""
+    import numpy as np
+
+    return np.array(camera_values(graph), np.float64)
+
+
+def background_values(graph: SceneGraph) -> tuple[float, ...]:
+    """7 values: kind, then the colour (and zeros) or the sky's bottom and top colours."""
     bg = graph.background
-    out = np.zeros(7)
     if isinstance(bg, SkyBackground):
-        out[0] = L.BACKGROUND_SKY
-        out[1:4], out[4:7] = bg.bottom, bg.top
-    else:
-        out[0] = L.BACKGROUND_SOLID
-        out[1:4] = bg.color
-    return out
+        return (float(L.BACKGROUND_SKY), *map(float, bg.bottom), *map(float, bg.top))
+    return (float(L.BACKGROUND_SOLID), *map(float, bg.color), 0.0, 0.0, 0.0)
 
 
 def with_width(graph: SceneGraph, width: int) -> SceneGraph:

@@ -4,11 +4,13 @@ Tables are few and wide on purpose: Numba passes each array to a function as a s
 several words, so the hot functions take a handful of arrays rather than the whole tuple.
 """
 
+from __future__ import annotations
+
 from typing import TYPE_CHECKING, NamedTuple
 
-import numpy as np
-
 if TYPE_CHECKING:
+    import numpy as np
+
     from scenefmt.graph import SceneGraph
 
 

@@ -6,8 +6,6 @@ from pathlib import Path
 
 import numpy as np
 
-from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
-
 
 def srgb_to_linear(values: np.ndarray) -> np.ndarray:
     """The sRGB transfer function inverted (IEC 61966-2-1), for values in [0, 1]."""
@@ -17,6 +15,8 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
     """An (h, w, 3) float32 array of linear RGB, row 0 at the top of the image."""
     from PIL import Image, UnidentifiedImageError
+
+    from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
 
     try:
         with Image.open(path) as img:

@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="no os.fork on this platform: rt render runs in one process there (can_split)")
 
-# Runs the `rt` program; notes on stderr when the front end hands over, and whether the
-# parent imported typer or pydantic. PROBE_FAIL=kill or raise makes the child's front half fail.
+# Runs the `rt` program; notes on stderr when the front end hands over (and whether it imported
+# numpy), and whether the parent imported typer, pydantic or the scene format. PROBE_FAIL=kill or raise makes the child's front half fail.
 PROBE = """
 import os, sys
 parent = os.getpid()
@@ -29,6 +29,7 @@ import rt.split as s
 hand_over = s.FrontEnd.hand_over
 def noted(self, *args):
     sys.stderr.write("handed over by the front end\\n")
+    sys.stderr.write(f"front end imported numpy {'numpy' in sys.modules}\\n")
     hand_over(self, *args)
 s.FrontEnd.hand_over = noted
 mode = os.environ.get("PROBE_FAIL")
@@ -58,7 +59,8 @@ try:
     run()
 except SystemExit as exc:
     code = exc.code
-sys.stderr.write(f"parent imported typer {'typer' in sys.modules} pydantic {'pydantic' in sys.modules}\\n")
+sys.stderr.write(f"parent imported typer {'typer' in sys.modules} pydantic {'pydantic' in sys.modules} "
+                 f"scenefmt {'scenefmt' in sys.modules}\\n")
 sys.exit(code)
 """
 HANDED = "handed over by the front end"
@@ -70,7 +72,7 @@ def run_program(*args, cwd, fail=None, **env_extra):
 
 
 def program_lines(stderr):
-    return [line for line in stderr.splitlines() if line != HANDED and not line.startswith("parent imported")]
+    return [line for line in stderr.splitlines() if line != HANDED and not line.startswith(("parent imported", "front end imported"))]
 
 
 def render_here(*args):
@@ -89,8 +91,10 @@ def test_a_real_render_is_split_and_writes_the_image_one_process_does(tmp_path):
     out = run_program("render", scene, "-o", "two.png", "--hdr", "two.pfm", *SCENE_ARGS, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert HANDED in out.stderr
-    # The process that renders never needed the command line's libraries.
-    assert "parent imported typer False pydantic False" in out.stderr
+    # The process that renders never needed the command line's libraries, nor the front end numpy
+    # (the scene has no image textures: its tables are plain Python values, see renderer/tables.py).
+    assert "parent imported typer False pydantic False scenefmt False" in out.stderr
+    assert "front end imported numpy False" in out.stderr
     assert "wrote two.png, two.pfm: 24x24, 3 spp" in out.stdout
     here = render_here(scene, "-o", str(tmp_path / "one.png"), "--hdr", str(tmp_path / "one.pfm"), *SCENE_ARGS)
     assert here.exit_code == 0, here.stderr

@@ -294,8 +294,8 @@ def widen(tree: Bvh) -> WideBvh:
 def load_builders() -> None:
     """Have the tree builders' machine code ready (loaded from Numba's disk cache, or compiled).
 
-    The first call of any compiled function also sets up Numba's compiler, about 0.15 s even
-    when the code comes from the cache: `rt render` pays that while another process reads the
-    scene (rt/split.py).
+    The first call of any compiled function also starts Numba's runtime and threads (the
+    compiler's own set-up is skipped for cached code, see cache_load.py): `rt render` pays that
+    while another process reads the scene (rt/split.py).
     """
     widen(build_bvh(np.zeros((1, 3)), np.ones((1, 3))))

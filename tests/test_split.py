@@ -103,6 +103,20 @@ def test_a_real_render_is_split_and_writes_the_image_one_process_does(tmp_path):
     assert np.isfinite(np.frombuffer((tmp_path / "one.pfm").read_bytes()[-24 * 24 * 12:], np.float32)).all()
 
 
+@pytest.mark.parametrize("name, images", [("earth", True), ("perlin_spheres", False)])
+def test_image_and_noise_textures_cross_to_the_parent_as_one_process_renders_them(tmp_path, name, images):
+    # Texels cross the pipe as numpy arrays (the front half imports numpy for images only); a
+    # noise texture crosses as its seed, and the parent makes its lattice tables.
+    scene = str(ROOT / "scenes" / f"{name}.yaml")
+    out = run_program("render", scene, "-o", "two.png", "--hdr", "two.pfm", *SCENE_ARGS, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert HANDED in out.stderr and f"front end imported numpy {images}" in out.stderr
+    here = render_here(scene, "-o", str(tmp_path / "one.png"), "--hdr", str(tmp_path / "one.pfm"), *SCENE_ARGS)
+    assert here.exit_code == 0, here.stderr
+    assert (tmp_path / "two.pfm").read_bytes() == (tmp_path / "one.pfm").read_bytes()
+    assert np.frombuffer((tmp_path / "one.pfm").read_bytes()[-24 * 12 * 12:], np.float32).mean() > 0.01
+
+
 def test_explain_prints_the_front_halfs_lines_before_the_back_halfs(tmp_path):
     scene = str(ROOT / "scenes" / "cornell_smoke.yaml")
     out = run_program("render", scene, "-o", "x.png", "--explain", *SCENE_ARGS, cwd=tmp_path)

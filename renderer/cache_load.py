@@ -15,11 +15,11 @@ another target, goes through Numba's own method untouched.
 This replaces a method of an internal Numba class, so it is done only for the Numba versions it
 was tested with (`TESTED`: the parts involved are the same in every release from 0.59 to 0.68,
 and the tests pass on 0.59.1 and 0.68.1); any other keeps Numba's behaviour and pays the set-up.
-One symbol source stays behind with the set-up: importing `numba.cpython.hashing` defines the
-hash secrets that compiled code hashing a string or using a typed dict or set would call. The
-kernels do neither (none of their cached objects refers to those symbols); if one ever does,
-`tests/renderer/test_cache_load.py`, which renders with the general kernel loaded this way,
-fails.
+Machine code refers to symbols from three places: Numba's helpers (registered when the context
+is made), the runtime (started here) and modules its environment imports when it is rebuilt
+(the parallel thread pool, and `numba.cpython.hashing`'s hash secrets for code that hashes; a
+review loaded such a function this way without trouble). `tests/renderer/test_cache_load.py`
+renders with the general kernel loaded this way and compares with Numba's own loading.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """`rt render` in two halves: `prepare` reads the scene, `render_prepared` renders it.
 
-The front half checks the options, reads, checks and flattens the scene (PyYAML, pydantic and
-numpy, no Numba) and prints what only the scene's models can tell (`--explain`). The back half
+The front half checks the options, reads, checks and flattens the scene (PyYAML and pydantic;
+numpy only for image textures and saved render states; no Numba) and prints what only the scene's models can tell (`--explain`). The back half
 loads the renderer (Numba), renders and writes the images. What passes between them, the
 options and a `PreparedScene`, is plain data, so the halves can run in two processes: the `rt`
 program runs the front half in a child while it loads the renderer (see split.py). Each half
@@ -148,7 +148,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 def load_renderer() -> None:
     """Import Numba and the renderer, and have the tree builders' machine code ready.
 
-    This is most of the back half's start (about 0.4 s on a 2-core machine): the `rt` program
+    This is most of the back half's start (about 0.33 s on a 2-core machine): the `rt` program
     does it while the front half runs in another process. In one process there is nothing to
     overlap, and `render_prepared` leaves it to the first tree build.
     """

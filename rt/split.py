@@ -5,8 +5,8 @@ threads would only take turns on the interpreter lock:
 
 - the front half (render_job.prepare): parsing the command line (typer, which imports pydantic
   for it), then reading, checking and flattening the scene (PyYAML, pydantic; numpy only for
-  image textures): about 0.33 s for bouncing spheres on a 2-core machine, 0.6 s for the final
-  scene;
+  image textures and for --resume or --save-state): about 0.33 s for bouncing spheres on a
+  2-core machine, 0.6 s for the final scene;
 - loading the renderer (render_job.load_renderer): importing Numba and loading the tree
   builder from the disk cache, about 0.33 s.
 

@@ -1,12 +1,12 @@
 """`rt render` in two halves: `prepare` reads the scene, `render_prepared` renders it.
 
 The front half checks the options, reads, checks and flattens the scene (PyYAML and pydantic;
-numpy only for image textures and saved render states; no Numba) and prints what only the scene's models can tell (`--explain`). The back half
-loads the renderer (Numba), renders and writes the images. What passes between them, the
-options and a `PreparedScene`, is plain data, so the halves can run in two processes: the `rt`
-program runs the front half in a child while it loads the renderer (see split.py). Each half
-prints its own errors and ends early with `Stop`. This module does without typer, so the
-process that renders does not import it.
+numpy only for image textures and saved render states; no Numba) and prints what only the
+scene's models can tell (`--explain`). The back half loads the renderer (Numba), renders and
+writes the images. What passes between them, the options and a `PreparedScene`, is plain
+data, so the halves can run in two processes: the `rt` program runs the front half in a child
+while it loads the renderer (see split.py). Each half prints its own errors and ends early
+with `Stop`. This module does without typer, so the process that renders does not import it.
 """
 
 from __future__ import annotations

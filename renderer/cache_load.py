@@ -8,9 +8,9 @@ needs none of it. It needs only Numba's runtime (NRT), whose functions the machi
 loading without it crashes.
 
 So for the renderer's own functions on the CPU, `load_overload` starts the runtime alone and
-loads. Where nothing usable is cached, it refreshes in full before returning, exactly as Numba
-does, and Numba compiles (its compiler refreshes again by itself). Any other function, or
-another target, goes through Numba's own method untouched.
+loads. Where nothing usable is cached, Numba compiles, and its compiler does the whole set-up
+itself first (`CompilerBase.__init__` refreshes both contexts). Any other function, or another
+target, goes through Numba's own method untouched.
 
 This replaces a method of an internal Numba class, so it is done only for the Numba versions it
 was tested with (`TESTED`: the parts involved are the same in every release from 0.59 to 0.68,
@@ -71,12 +71,9 @@ def install() -> bool:
             return numba_load(self, sig, target_context)
         # The one part of target_context.refresh() that loaded machine code relies on.
         rtsys.initialize(target_context)
-        cres = None
         with self._guard_against_spurious_io_errors():
-            cres = self._load_overload(sig, target_context)
-        if cres is None:
-            target_context.refresh()  # as Numba would have before a compilation
-        return cres
+            return self._load_overload(sig, target_context)
+        return None  # the guard swallowed an I/O error: nothing loaded, as in Numba's own method
 
     load_overload._rt_light = True
     load_overload.__doc__ = numba_load.__doc__

@@ -426,13 +426,6 @@ def camera_values(graph: SceneGraph) -> tuple[float, ...]:
             float(graph.shutter.open), float(graph.shutter.close))
 
 
-def camera_array(graph: SceneGraph) -> np.ndarray:
-    """`camera_values` as the (21,) float64 array of the flat scene."""
-    import numpy as np
-
-    return np.array(camera_values(graph), np.float64)
-
-
 def background_values(graph: SceneGraph) -> tuple[float, ...]:
     """7 values: kind, then the colour (and zeros) or the sky's bottom and top colours."""
     bg = graph.background

@@ -55,12 +55,12 @@ def pixel_rays(graph_scene, sub: int = 8, corners: bool = False):
 
     The grid's points are the centres of sub x sub cells, or with `corners` evenly spaced from
     edge to edge (the pixel's four corners are then points 0, sub - 1, -sub and -1).
-    Mirrors renderer.compile.camera_array (checked by the sampling tests), so tests can compute
+    Mirrors renderer.compile.camera_values (checked by the sampling tests), so tests can compute
     what each pixel should see by quadrature over its footprint: shape (h, w, sub*sub, 3).
     """
-    from renderer.compile import camera_array
+    from renderer.compile import camera_values
 
-    cam = camera_array(build_graph(graph_scene))
+    cam = np.array(camera_values(build_graph(graph_scene)))
     h, w = graph_scene.image.pixel_height, graph_scene.image.width
     offs = np.linspace(-0.5, 0.5, sub) if corners else (np.arange(sub) + 0.5) / sub - 0.5
     ox, oy = np.meshgrid(offs, offs, indexing="xy")

@@ -1,6 +1,7 @@
 """Cached machine code loaded without Numba's compile-time set-up (renderer/cache_load.py): the
 same results as Numba's own loading, the set-up really skipped, and a cache miss still compiles."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -81,11 +82,9 @@ def test_light_loading_skips_the_set_up_and_renders_the_same(tmp_path):
 
 @needs_tested_numba
 def test_a_cache_miss_compiles_and_the_next_process_loads_it(tmp_path):
-    import os
-
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     key, *first = run(KEY, env=env)
-    assert first == ["compiled", "set-up"]  # the miss set Numba up in full, then compiled
+    assert first == ["compiled", "set-up"]  # on a miss the compiler set Numba up in full, then compiled
     again, *second = run(KEY, env=env)
     assert second == ["cache-hit", "no-set-up"]
     assert again == key
@@ -94,8 +93,6 @@ def test_a_cache_miss_compiles_and_the_next_process_loads_it(tmp_path):
 
 
 def test_other_functions_load_through_numbas_own_method(tmp_path):
-    import os
-
     (tmp_path / "other_module.py").write_text("import numba\n\n@numba.njit(cache=True)\ndef twice(x):\n    return 2 * x\n")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=os.pathsep.join([str(tmp_path), str(ROOT), os.environ.get("PYTHONPATH", "")]))

@@ -15,8 +15,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from . import jit_cache  # noqa: F401  (chooses the cache folder before the functions below are made)
+from . import jit_cache
 from .config import BVH_BINS, BVH_MAX_LEAF
+
+jit_cache.configure()  # before the compiled functions below are defined
 
 # A flat box is padded to this thickness (relative to the scene's scale) so slab tests stay robust.
 PAD_RELATIVE = 1e-9
@@ -289,13 +291,3 @@ def widen(tree: Bvh) -> WideBvh:
     """The four-wide form of a binary tree (same leaves, same primitive order)."""
     box, child = _widen(tree.lo, tree.hi, tree.a.astype(np.int64), tree.n.astype(np.int64))
     return WideBvh(box, child)
-
-
-def load_builders() -> None:
-    """Have the tree builders' machine code ready (loaded from Numba's disk cache, or compiled).
-
-    The first call of any compiled function also starts Numba's runtime and threads (the
-    compiler's own set-up is skipped for cached code, see cache_load.py): `rt render` pays that
-    while another process reads the scene (rt/split.py).
-    """
-    widen(build_bvh(np.zeros((1, 3)), np.ones((1, 3))))

@@ -1,14 +1,16 @@
-"""Where Numba caches the compiled code: imported by every module with compiled code, before it.
+"""Where Numba caches the renderer's compiled code.
 
-Compiled kernels are cached on disk. Numba keys each cached function by its own source file
-only, so a kernel that inlines code from another file would keep stale machine code after
-that file changes. The cache therefore lives in a folder named after a hash of every source
-with compiled code (and the Numba version): any change gives a fresh cache, and an installation in a
-read-only place still caches. Set NUMBA_CACHE_DIR to choose the place yourself.
+Numba keys each cached function by its own source file only, so a kernel that inlines code
+from another file would keep stale machine code after that file changes. The cache therefore
+lives in a folder named after a hash of every source with compiled code (and the Numba
+version): any change gives a fresh cache, and an installation in a read-only place still
+caches. Set NUMBA_CACHE_DIR to choose the place yourself.
 
-Importing this also has cached code load without the compiler's set-up (cache_load.py).
+Numba reads its cache folder when a compiled function is defined, so `configure` must run
+before any module with compiled code is imported: each such module calls it at its top.
 """
 
+from __future__ import annotations
 
 import hashlib
 import os
@@ -16,16 +18,16 @@ from pathlib import Path
 
 import numba
 
-from . import cache_load
+_configured = False
 
 
 def _cache_dir() -> Path:
     here = Path(__file__).resolve().parent
     # Every file with compiled code, or constants compiled into it.
-    sources = sorted((here / "kernels").glob("*.py")) + [here / name for name in ("bvh.py", "layout.py", "config.py")]
+    sources = sorted(here.rglob("*.py"))
     digest = hashlib.sha256(numba.__version__.encode())
     for path in sources:
-        digest.update(path.name.encode())
+        digest.update(str(path.relative_to(here)).encode())
         digest.update(path.read_bytes())
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rt" / "numba"
     return base / digest.hexdigest()[:16]
@@ -42,11 +44,15 @@ def _writable(path: Path) -> bool:
         return False
 
 
-if not os.environ.get("NUMBA_CACHE_DIR"):
-    _dir = _cache_dir()
-    # Where the home folder is read-only, Numba's own choice of cache folder is kept.
-    if _writable(_dir):
-        numba.config.CACHE_DIR = str(_dir)
+def configure() -> str:
+    """Choose Numba's cache folder for the renderer (once per process) and return it.
 
-# Cached functions load without the compiler's set-up, for the Numba versions that was checked on.
-cache_load.install()
+    NUMBA_CACHE_DIR wins; where the home folder is read-only, Numba's own choice is kept.
+    """
+    global _configured
+    if not _configured and not os.environ.get("NUMBA_CACHE_DIR"):
+        folder = _cache_dir()
+        if _writable(folder):
+            numba.config.CACHE_DIR = str(folder)
+    _configured = True
+    return numba.config.CACHE_DIR

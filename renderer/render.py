@@ -8,7 +8,6 @@ random numbers are keyed by sample index, the passes' split never changes the im
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable, Optional
 
@@ -16,9 +15,9 @@ import numpy as np
 
 from .film import Film, relative_noise
 from .flat import FlatScene, Frame
-from .variants import GENERAL, KernelFeatures, features_of, kernels_for
+from .variants import KernelFeatures, features_of, kernels_for, mark_compiled
 
-if TYPE_CHECKING:  # the scene's models are not needed to render a flat scene (see rt/split.py)
+if TYPE_CHECKING:
     from scenefmt.graph import SceneGraph
 
 PASS_SECONDS = 0.25
@@ -48,22 +47,6 @@ class RenderStats:
 class RenderResult:
     film: Film
     stats: RenderStats = field(default_factory=RenderStats)
-
-
-def kernels_cached(features: KernelFeatures = GENERAL) -> bool:
-    """Whether the render kernel for `features` is compiled in this process or waiting in the disk cache.
-
-    False means the next render starts by compiling it (10 to 20 seconds, once per installation
-    and feature set).
-    """
-    render_pass = kernels_for(features).render_pass
-
-    if render_pass.signatures:
-        return True
-    try:
-        return Path(render_pass._cache._cache_file._index_path).is_file()
-    except AttributeError:  # a Numba without this internal layout: assume the best
-        return True
 
 
 def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) -> RenderResult:
@@ -127,6 +110,7 @@ def render_flat(
     t0 = time.perf_counter()
     render_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
     stats.kernel_seconds = time.perf_counter() - t0
+    mark_compiled(stats.features)
     batch = 1
     stats_start_samples = film.samples
     render_start = time.perf_counter()

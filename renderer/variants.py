@@ -30,7 +30,7 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from . import jit_cache  # noqa: F401  (the cache folder the copies' folders go under)
+from . import jit_cache
 from . import layout as L
 from .flat import FlatScene
 from .kernels import features as _general_flags
@@ -105,12 +105,33 @@ def features_of(flat: FlatScene) -> KernelFeatures:
 
 
 def _variant_cache_dir(tag: str) -> str:
-    base = numba.config.CACHE_DIR
+    base = jit_cache.configure()
     if not base:
         # Numba's default puts the cache beside the sources, shared by every copy: keep the
         # copies apart in a private temporary folder instead.
         base = os.path.join(tempfile.gettempdir(), f"rt-numba-{os.getuid() if hasattr(os, 'getuid') else 'user'}")
     return os.path.join(base, "variants", tag)
+
+
+def _ready_marker(features: KernelFeatures) -> Path:
+    """A file of ours, beside the kernel's cached machine code, that says it was compiled."""
+    folder = jit_cache.configure() if features.is_general else _variant_cache_dir(features.tag)
+    return Path(folder or tempfile.gettempdir()) / f"rt-kernel-ready-{features.tag}"
+
+
+def is_compiled(features: KernelFeatures) -> bool:
+    """Whether the kernel for `features` has been compiled in this installation (and so will load
+    from the disk cache rather than compile): a render says so before a long compile."""
+    return _ready_marker(features).is_file()
+
+
+def mark_compiled(features: KernelFeatures) -> None:
+    marker = _ready_marker(features)
+    try:
+        marker.parent.mkdir(parents=True, exist_ok=True)
+        marker.touch()
+    except OSError:  # a read-only cache: the next render just says it may compile
+        pass
 
 
 def kernels_for(features: KernelFeatures) -> types.ModuleType:

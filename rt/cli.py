@@ -128,8 +128,7 @@ def render(
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
 
-    from . import split
-    from .render_job import RenderOptions, Stop, prepare, render_prepared
+    from .render_job import RenderOptions, Stop, run
 
     started = time.perf_counter()
     opts = RenderOptions(
@@ -137,13 +136,7 @@ def render(
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
     )
     try:
-        # Read before the renderer loads: an invalid scene is reported at once.
-        prepared = prepare(opts)
-        if split.front_end is not None:
-            # This is the `rt` program's front-end process: the other process renders (see split.py).
-            split.front_end.hand_over(opts, prepared, started)
-            return
-        render_prepared(opts, prepared, started)
+        run(opts, started)
     except Stop as stop:
         raise typer.Exit(stop.status)
 

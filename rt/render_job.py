@@ -1,12 +1,7 @@
-"""`rt render` in two halves: `prepare` reads the scene, `render_prepared` renders it.
+"""`rt render`: check the options, read and flatten the scene, render it, write the images.
 
-The front half checks the options, reads, checks and flattens the scene (PyYAML and pydantic;
-numpy only for image textures and saved render states; no Numba) and prints what only the
-scene's models can tell (`--explain`). The back half loads the renderer (Numba), renders and
-writes the images. What passes between them, the options and a `PreparedScene`, is plain
-data, so the halves can run in two processes: the `rt` program runs the front half in a child
-while it loads the renderer (see split.py). Each half prints its own errors and ends early
-with `Stop`. This module does without typer, so the process that renders does not import it.
+Each step prints its own errors and ends early with `Stop`; the command line turns that into
+the exit status. This module does without typer, so it can be driven from Python too.
 """
 
 from __future__ import annotations
@@ -18,8 +13,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
 if TYPE_CHECKING:
-    from renderer.flat import Frame
-    from renderer.tables import SceneTables
+    from renderer.flat import FlatScene, Frame
+    from renderer.variants import KernelFeatures
 
 BUDGET_SAMPLE_CAP = 1_000_000
 
@@ -51,10 +46,11 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class PreparedScene:
-    """What the back half needs of a scene: its tables (all but the trees) and image settings."""
+    """A scene ready to render: its flat tables, image settings and kernel features."""
 
-    tables: SceneTables
+    flat: FlatScene
     frame: Frame
+    features: KernelFeatures
     budget_seconds: Optional[float]  # --time in seconds
     # sha256 of the scene's canonical JSON, for --resume and --save-state (None without them).
     fingerprint: Optional[str]
@@ -100,10 +96,7 @@ def fail(message: str) -> Stop:
 
 
 def prepare(opts: RenderOptions) -> PreparedScene:
-    """Check the options and read the scene; print its errors and raise Stop(1) if any.
-
-    Imports neither Numba nor any module with compiled code.
-    """
+    """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
     if opts.time_budget is not None:
         budget_seconds = parse_duration(opts.time_budget)
@@ -115,15 +108,16 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
 
-    from renderer.compile import scene_tables, with_width
+    from renderer.compile import compile_scene, with_width
     from renderer.flat import Frame
+    from renderer.variants import features_of
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load
 
     try:
         loaded = load(opts.scene)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
-        tables = scene_tables(graph)
+        flat = compile_scene(graph)
     except SceneError as exc:
         for diag in exc.diagnostics:
             say(str(diag), err=True)
@@ -142,19 +136,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         from scenefmt.writing import dumps
 
         fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
-    return PreparedScene(tables, Frame.of(graph), budget_seconds, fingerprint)
-
-
-def load_renderer() -> None:
-    """Import Numba and the renderer, and have the tree builders' machine code ready.
-
-    This is most of the back half's start (about 0.33 s on a 2-core machine): the `rt` program
-    does it while the front half runs in another process. In one process there is nothing to
-    overlap, and `render_prepared` leaves it to the first tree build.
-    """
-    from renderer.bvh import load_builders
-
-    load_builders()
+    return PreparedScene(flat, Frame.of(graph), features_of(flat), budget_seconds, fingerprint)
 
 
 class Progress:
@@ -196,17 +178,21 @@ class Progress:
             sys.stderr.write("\n")
 
 
+def run(opts: RenderOptions, started: float) -> None:
+    """The whole command; `started` is when it started (time.perf_counter), for the summary.
+    Raises Stop for any end but success."""
+    render_prepared(opts, prepare(opts), started)
+
+
 def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -> None:
-    """Render a prepared scene and write its images; `started` is when the command started
-    (time.perf_counter), for the summary. Raises Stop for any end but success."""
+    """Render a prepared scene and write its images. Raises Stop for any end but success."""
     import signal
 
     import numba
 
-    from renderer.assemble import assemble
     from renderer.film import estimate_noise, noise_map_image, write_image
-    from renderer.render import kernels_cached, render_flat
-    from renderer.variants import features_of
+    from renderer.render import render_flat
+    from renderer.variants import is_compiled
 
     frame = scene.frame
     if opts.threads is not None:
@@ -246,11 +232,10 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         stop["requested"] = True
         sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
 
-    flat = assemble(scene.tables)
-    features = features_of(flat)
+    flat, features = scene.flat, scene.features
     if opts.explain:
         say(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
-    if not kernels_cached(features):
+    if not is_compiled(features):
         say(
             f"compiling the renderer for this feature set ({features.tag}): 10 to 20 seconds on 2 cores, once; "
             f"cached in {numba.config.CACHE_DIR}",

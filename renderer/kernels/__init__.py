@@ -1,5 +1,7 @@
 """Numba kernels. They see only numpy arrays and scalars, never pydantic models."""
 
-# Chooses Numba's cache folder before any kernel module (of this package or of a specialised
-# copy, see variants.py) makes its compiled functions.
-from .. import jit_cache  # noqa: F401
+from .. import jit_cache
+
+# Numba reads its cache folder when a compiled function is defined: choose it before any
+# kernel module (of this package or of a specialised copy, see variants.py) is imported.
+jit_cache.configure()

@@ -9,7 +9,7 @@ import pytest
 
 from renderer.compile import compile_scene, with_width
 from renderer.render import render
-from renderer.variants import GENERAL, KernelFeatures, features_of, kernels_for
+from renderer.variants import GENERAL, KernelFeatures, _variant_cache_dir, features_of, is_compiled, kernels_for
 from scenefmt.effects import summarize
 from scenefmt.validation import load, loads
 
@@ -156,6 +156,11 @@ def test_render_refuses_a_kernel_that_lacks_a_path_the_scene_needs():
 
 
 def test_each_feature_set_has_a_cache_folder_of_its_own():
-    folders = {kernels_for(f).render_pass._cache._cache_path for f in (NONE, replace(NONE, sky=True))}
-    assert len(folders) == 2
-    assert sorted(next(part for part in Path(p).parts if part in ("none", "sky")) for p in folders) == ["none", "sky"]
+    sky = replace(NONE, sky=True)
+    for features in (NONE, sky):
+        render(loads(scene_text("sky" if features.sky else None).replace("EARTH", "")).graph, samples=1, features=features)
+    folders = {tag: Path(_variant_cache_dir(tag)) for tag in ("none", "sky")}
+    for tag, folder in folders.items():
+        assert any(folder.rglob("integrator.render_pass*")), f"no cached render kernel in {folder}"
+    assert len(set(folders.values())) == 2
+    assert is_compiled(NONE) and is_compiled(sky)

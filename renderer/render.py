@@ -15,7 +15,8 @@ import numpy as np
 
 from .film import Film, relative_noise
 from .flat import FlatScene, Frame
-from .variants import KernelFeatures, features_of, kernels_for, mark_compiled
+from .jit_cache import configure as kernel_cache_folder
+from .variants import KernelFeatures, features_of, first_kernel, is_compiled, kernels_for, mark_compiled, worth_specialising
 
 if TYPE_CHECKING:
     from scenefmt.graph import SceneGraph
@@ -77,6 +78,8 @@ def render_flat(
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
     features: Optional[KernelFeatures] = None,
+    kernel: str = "auto",
+    notify: Optional[Callable[[str], None]] = None,
 ) -> RenderResult:
     """Render the flat scene `flat` with the settings of `frame` (unless overridden) until
     `samples` per pixel are done.
@@ -87,9 +90,11 @@ def render_flat(
     `film.estimate_noise`) the render also stops when the time is spent or the estimated noise
     falls below the target; `samples` is then the cap.
 
-    `features` chooses the kernel: by default the one specialised to the scene's features
-    (`variants.features_of`); `variants.GENERAL` renders with every path compiled in. Any
-    kernel that has the paths the scene reaches gives the same image.
+    Any kernel that has the paths the scene reaches gives the same image. `kernel` chooses
+    ("auto", "general" or "specialised", see `variants.first_kernel`); with "auto" a render
+    that starts with the general kernel switches to the specialised one when the rest of it
+    is long enough to repay the compile (`variants.worth_specialising`). `features` names a
+    kernel outright. `notify` receives a line before a compile or a switch.
     """
     width, height = frame.width, frame.height
     target = samples if samples is not None else frame.samples
@@ -99,18 +104,27 @@ def render_flat(
     needed = features_of(flat)
     if features is not None and not features.covers(needed):
         raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
-    stats.features = features if features is not None else needed
-    render_pass = kernels_for(stats.features).render_pass
+    stats.features = features if features is not None else first_kernel(needed, kernel)
+    may_switch = features is None and kernel == "auto" and stats.features != needed
     if film is None:
         film = Film.empty(width, height)
     stats.samples = film.samples
     row_rays = np.zeros(height, np.int64)
     row_bad = np.zeros(height, np.int64)
-    # Compile (or load from the disk cache) before timing anything: a pass of zero samples.
-    t0 = time.perf_counter()
-    render_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
-    stats.kernel_seconds = time.perf_counter() - t0
-    mark_compiled(stats.features)
+
+    def load(chosen: KernelFeatures):
+        """The render pass of kernel `chosen`, compiled or loaded before anything is timed."""
+        if notify is not None and not is_compiled(chosen):
+            notify(f"compiling the renderer's {chosen.tag!r} kernel: 8 to 30 seconds on 2 cores, once; cached in "
+                   f"{kernel_cache_folder()}")
+        t0 = time.perf_counter()
+        chosen_pass = kernels_for(chosen).render_pass
+        chosen_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
+        stats.kernel_seconds += time.perf_counter() - t0
+        mark_compiled(chosen)
+        return chosen_pass
+
+    render_pass = load(stats.features)
     batch = 1
     stats_start_samples = film.samples
     render_start = time.perf_counter()
@@ -153,6 +167,14 @@ def render_flat(
             break
         # Size the next pass to take about pass_seconds.
         per_sample = dt / n if n else dt
+        if may_switch:
+            left = time_budget - (time.perf_counter() - render_start) if time_budget is not None else per_sample * (target - film.samples)
+            if worth_specialising(left):
+                may_switch = False
+                if notify is not None:
+                    notify(f"switching to the kernel specialised to this scene ({needed.tag}): about {left:.0f} s of rendering left")
+                render_pass = load(needed)
+                stats.features = needed
         batch = max(1, min(4 * n, int(pass_seconds / per_sample) if per_sample > 0 else 4 * n))
     stats.seconds = time.perf_counter() - render_start
     stats.noise = relative_noise(film)

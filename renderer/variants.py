@@ -104,6 +104,35 @@ def features_of(flat: FlatScene) -> KernelFeatures:
     )
 
 
+# How a render chooses its kernel (`render_flat(kernel=...)`, `rt render --kernel`).
+KERNEL_CHOICES = ("auto", "general", "specialised")
+# What "auto" weighs: a specialised kernel renders a few per cent faster than the general one
+# (docs/performance.md: 5% at the median of the book scenes, 14% at most), and compiling it
+# costs 8 to 14 s on a quiet 2-core machine, twice that on a busy one. So a render starts at
+# once with whatever is compiled, and compiles the specialised kernel only when the time it
+# saves on the rest of the render repays the compile.
+SPECIALISED_GAIN = 0.05
+SPECIALISED_COMPILE_SECONDS = 15.0
+
+
+def first_kernel(needed: KernelFeatures, choice: str = "auto") -> KernelFeatures:
+    """The kernel a render of a scene needing `needed` starts with.
+
+    "auto": the specialised kernel if it is compiled already, else the general one (one compile
+    serves every scene); "general" and "specialised" force one or the other.
+    """
+    if choice not in KERNEL_CHOICES:
+        raise ValueError(f"unknown kernel choice {choice!r}: expected one of {', '.join(KERNEL_CHOICES)}")
+    if choice == "specialised" or (choice == "auto" and is_compiled(needed)):
+        return needed
+    return GENERAL
+
+
+def worth_specialising(remaining_seconds: float) -> bool:
+    """Whether compiling the specialised kernel now repays itself in the rest of a render."""
+    return remaining_seconds * SPECIALISED_GAIN > SPECIALISED_COMPILE_SECONDS
+
+
 def _variant_cache_dir(tag: str) -> str:
     base = jit_cache.configure()
     if not base:

@@ -124,6 +124,11 @@ def render(
     explain: bool = typer.Option(
         False, "--explain", help="Print which effects the scene uses, and the element that switches each on."
     ),
+    kernel: str = typer.Option(
+        "auto", "--kernel",
+        help="Which compiled kernel renders: auto (whatever is compiled; specialise a long render), general, or "
+        "specialised (compile one for this scene's effects first).",
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -134,6 +139,7 @@ def render(
     opts = RenderOptions(
         scene=scene, output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
+        kernel=kernel,
     )
     try:
         run(opts, started)

@@ -37,6 +37,7 @@ class RenderOptions:
     save_state: Optional[Path] = None
     resume: Optional[Path] = None
     explain: bool = False
+    kernel: str = "auto"
 
     @property
     def out(self) -> Path:
@@ -102,6 +103,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         budget_seconds = parse_duration(opts.time_budget)
         if budget_seconds is None:
             raise fail(f"error: --time {opts.time_budget!r}: expected a duration such as 30s, 2m, 1h30m or 45")
+    from renderer.variants import KERNEL_CHOICES
+
+    if opts.kernel not in KERNEL_CHOICES:
+        raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
     for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".pfm",)), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
@@ -173,6 +178,11 @@ class Progress:
             self.last_decile = int(frac * 10)
             sys.stderr.write(line + "\n")
 
+    def notify(self, message: str) -> None:
+        """A line of its own, between progress updates."""
+        sys.stderr.write(("\r\x1b[K" if self.tty else "") + message + "\n")
+        sys.stderr.flush()
+
     def close(self) -> None:
         if self.tty:
             sys.stderr.write("\n")
@@ -192,7 +202,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
 
     from renderer.film import estimate_noise, noise_map_image, write_image
     from renderer.render import render_flat
-    from renderer.variants import is_compiled
+    from renderer.variants import first_kernel
 
     frame = scene.frame
     if opts.threads is not None:
@@ -234,20 +244,15 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
 
     flat, features = scene.flat, scene.features
     if opts.explain:
-        say(f"kernel: {features.tag} (the paths compiled in; see docs/performance.md)", err=True)
-    if not is_compiled(features):
-        say(
-            f"compiling the renderer for this feature set ({features.tag}): 10 to 20 seconds on 2 cores, once; "
-            f"cached in {numba.config.CACHE_DIR}",
-            err=True,
-        )
+        chosen = first_kernel(features, opts.kernel)
+        say(f"kernel: {chosen.tag} (the paths compiled in; this scene needs {features.tag}; see docs/performance.md)", err=True)
     previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = Progress(target, scene.budget_seconds, opts.noise)
     try:
         result = render_flat(
             flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
             should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
-            noise_target=opts.noise, features=features,
+            noise_target=opts.noise, kernel=opts.kernel, notify=bar.notify,
         )
     except ValueError as exc:
         failure = str(exc)

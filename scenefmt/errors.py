@@ -8,7 +8,8 @@ was found against what was expected, with a did-you-mean for misspelt keys and t
 from __future__ import annotations
 
 import typing
-from typing import Any, Iterator, Union
+from dataclasses import dataclass
+from typing import Any, Callable, Iterator, Union
 
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
@@ -110,6 +111,7 @@ def _expected_tags(root: type, loc: tuple) -> list[str]:
 
 
 # ----------------------------------------------------------------------------------------------
+# Wording each kind of error: one handler per pydantic error type, looked up in _HANDLERS
 
 
 def _short(value: Any) -> str:
@@ -124,98 +126,166 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _diagnostics_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
-    kind = err["type"]
-    loc = tuple(err["loc"])
-    ctx = err.get("ctx") or {}
-    path = data_path(doc.data, loc)
-    found = err.get("input")
+@dataclass(frozen=True)
+class _Error:
+    """One pydantic error, with what its handler needs: where it points in the file and what was found."""
 
-    if kind == "missing":
-        field = loc[-1]
-        return doc.diagnostic(path + (field,), f"missing required key '{field}'")
+    kind: str  # pydantic's error type: "missing", "extra_forbidden", ...
+    msg: str
+    loc: tuple  # pydantic's location, union tags included
+    ctx: dict
+    path: tuple  # the location through the data: real keys and indices only
+    found: Any
+    doc: SourceDocument
+    root: type
 
-    if kind == "field_rule":
-        # A rule about several fields, placed at the field the message is about.
-        field = ctx.get("field")
-        return doc.diagnostic(path + ((field,) if field else ()), err["msg"])
 
-    if kind in ("model_type", "model_attributes_type", "dict_type"):
-        return doc.diagnostic(path, f"expected a mapping of keys to values, found {_short(found)}")
+def _missing_key(e: _Error) -> Diagnostic:
+    field = e.loc[-1]
+    return e.doc.diagnostic(e.path + (field,), f"missing required key '{field}'")
 
-    if kind in ("too_short", "too_long"):
-        bound = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
-        word = "at least" if kind == "too_short" else "at most"
-        return doc.diagnostic(path, f"expected {word} {bound} item{'s' if bound != 1 else ''}, found {ctx.get('actual_length')}")
 
-    if kind == "literal_error" and path == ("version",):
-        return doc.diagnostic(path, f"unsupported scene format version {_short(found)}; this rt reads version 1")
+def _field_rule(e: _Error) -> Diagnostic:
+    # A rule about several fields, placed at the field the message is about.
+    field = e.ctx.get("field")
+    return e.doc.diagnostic(e.path + ((field,) if field else ()), e.msg)
 
-    if kind == "extra_forbidden":
-        key = loc[-1]
-        model = type_at(root, loc[:-1])
-        allowed = list(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
-        allowed = (["type"] if "type" in allowed else []) + [a for a in allowed if a != "type"]
-        hint = did_you_mean(key, allowed)
-        if key == "interior" and "type" in allowed:
-            hint = "; only closed shapes (sphere, moving_sphere, box) can hold an interior medium"
-        elif not hint and allowed:
-            hint = f"; expected one of: {', '.join(allowed)}"
-        return doc.diagnostic(path, f"unknown key '{key}'{hint}", of_key=True)
 
-    if kind == "union_tag_invalid":
-        tag = ctx.get("tag")
-        tags = _expected_tags(root, loc)
-        return doc.diagnostic(
-            path + ("type",) if isinstance(value_at(doc.data, path), dict) else path,
-            f"unknown type '{tag}'{did_you_mean(tag, tags)}" + (f" (expected one of: {', '.join(tags)})" if tags else ""),
-        )
+def _not_a_mapping(e: _Error) -> Diagnostic:
+    return e.doc.diagnostic(e.path, f"expected a mapping of keys to values, found {_short(e.found)}")
 
-    if kind == "union_tag_not_found":
-        tags = _expected_tags(root, loc)
-        return doc.diagnostic(path, "missing key 'type'" + (f"; expected one of: {', '.join(tags)}" if tags else ""))
 
-    if kind == "transform_step":
-        message = err["msg"]
-        if isinstance(found, dict) and found:
-            first = next(iter(found))
-            message = f"unknown transform step '{first}'{did_you_mean(first, STEP_KINDS)} ({message})"
-        else:
-            message = f"{message}, found {_short(found)}"
-        return doc.diagnostic(path, message)
+def _wrong_length(e: _Error) -> Diagnostic:
+    bound = e.ctx.get("min_length") if e.kind == "too_short" else e.ctx.get("max_length")
+    word = "at least" if e.kind == "too_short" else "at most"
+    return e.doc.diagnostic(
+        e.path, f"expected {word} {bound} item{'s' if bound != 1 else ''}, found {e.ctx.get('actual_length')}"
+    )
 
-    if kind == "background" and isinstance(found, dict) and isinstance(found.get("type"), str):
-        tags = ["solid", "sky"]
-        tag = found["type"]
-        return doc.diagnostic(path + ("type",), f"unknown type '{tag}'{did_you_mean(tag, tags)} (expected one of: {', '.join(tags)})")
 
-    if kind in ("texture_slot", "material_slot", "medium_slot", "group_slot", "background"):
-        return doc.diagnostic(path, f"{err['msg']}, found {_short(found)}")
+def _unsupported_version(e: _Error) -> Diagnostic:
+    if e.path != ("version",):
+        return _worded_by_pydantic(e)
+    return e.doc.diagnostic(e.path, f"unsupported scene format version {_short(e.found)}; this rt reads version 1")
 
-    if kind == "value_error":
-        message = err["msg"].removeprefix("Value error, ")
-        return doc.diagnostic(path, message)
 
-    if kind == "string_pattern_mismatch" and "A-Za-z_" in str(ctx.get("pattern", "")):
-        return doc.diagnostic(
-            path,
-            f"{_short(found)} is not a valid name: use letters, digits, '_', '.' or '-', starting with a letter or '_'",
-            of_key=bool(loc) and loc[-1] == "[key]",
-        )
+def _unknown_key(e: _Error) -> Diagnostic:
+    key = e.loc[-1]
+    model = type_at(e.root, e.loc[:-1])
+    allowed = list(model.model_fields) if isinstance(model, type) and issubclass(model, BaseModel) else []
+    allowed = (["type"] if "type" in allowed else []) + [a for a in allowed if a != "type"]
+    hint = did_you_mean(key, allowed)
+    if key == "interior" and "type" in allowed:
+        hint = "; only closed shapes (sphere, moving_sphere, box) can hold an interior medium"
+    elif not hint and allowed:
+        hint = f"; expected one of: {', '.join(allowed)}"
+    return e.doc.diagnostic(e.path, f"unknown key '{key}'{hint}", of_key=True)
 
-    bounds = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
-    if kind in bounds:
-        limit = next(iter(ctx.values()))
-        limit = f"{limit:g}" if isinstance(limit, (int, float)) else limit
-        return doc.diagnostic(path, f"expected a number {bounds[kind]} {limit}, found {_short(found)}")
-    message = err["msg"]
+
+def _unknown_type_message(tag: Any, tags: list[str]) -> str:
+    return f"unknown type '{tag}'{did_you_mean(tag, tags)}" + (f" (expected one of: {', '.join(tags)})" if tags else "")
+
+
+def _unknown_type(e: _Error) -> Diagnostic:
+    tag = e.ctx.get("tag")
+    at_type_key = isinstance(value_at(e.doc.data, e.path), dict)
+    return e.doc.diagnostic(
+        e.path + ("type",) if at_type_key else e.path, _unknown_type_message(tag, _expected_tags(e.root, e.loc))
+    )
+
+
+def _missing_type(e: _Error) -> Diagnostic:
+    tags = _expected_tags(e.root, e.loc)
+    return e.doc.diagnostic(e.path, "missing key 'type'" + (f"; expected one of: {', '.join(tags)}" if tags else ""))
+
+
+def _unknown_transform_step(e: _Error) -> Diagnostic:
+    if isinstance(e.found, dict) and e.found:
+        first = next(iter(e.found))
+        return e.doc.diagnostic(e.path, f"unknown transform step '{first}'{did_you_mean(first, STEP_KINDS)} ({e.msg})")
+    return e.doc.diagnostic(e.path, f"{e.msg}, found {_short(e.found)}")
+
+
+def _bad_slot(e: _Error) -> Diagnostic:
+    return e.doc.diagnostic(e.path, f"{e.msg}, found {_short(e.found)}")
+
+
+def _bad_background(e: _Error) -> Diagnostic:
+    # The background's callable discriminator reports every failure as one custom error, with no tag;
+    # an unknown `type:` is picked out here so it reads like any other union's.
+    if isinstance(e.found, dict) and isinstance(e.found.get("type"), str):
+        return e.doc.diagnostic(e.path + ("type",), _unknown_type_message(e.found["type"], ["solid", "sky"]))
+    return _bad_slot(e)
+
+
+def _validator_message(e: _Error) -> Diagnostic:
+    return e.doc.diagnostic(e.path, e.msg.removeprefix("Value error, "))
+
+
+def _invalid_name(e: _Error) -> Diagnostic:
+    if "A-Za-z_" not in str(e.ctx.get("pattern", "")):
+        return _worded_by_pydantic(e)
+    return e.doc.diagnostic(
+        e.path,
+        f"{_short(e.found)} is not a valid name: use letters, digits, '_', '.' or '-', starting with a letter or '_'",
+        of_key=bool(e.loc) and e.loc[-1] == "[key]",
+    )
+
+
+_BOUND_SIGNS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
+
+
+def _out_of_bounds(e: _Error) -> Diagnostic:
+    limit = next(iter(e.ctx.values()))
+    limit = f"{limit:g}" if isinstance(limit, (int, float)) else limit
+    return e.doc.diagnostic(e.path, f"expected a number {_BOUND_SIGNS[e.kind]} {limit}, found {_short(e.found)}")
+
+
+def _worded_by_pydantic(e: _Error) -> Diagnostic:
+    """Any other error: pydantic's own message, reworded as expected-versus-found."""
+    message = e.msg
     if message.startswith("Input should be "):
         message = "expected " + message.removeprefix("Input should be ")
-    if not isinstance(found, (dict, list)) or kind.endswith(("_type", "literal_error")):
-        message += f", found {_short(found)}"
-    if loc and loc[-1] == "[key]":
+    if not isinstance(e.found, (dict, list)) or e.kind.endswith(("_type", "literal_error")):
+        message += f", found {_short(e.found)}"
+    if e.loc and e.loc[-1] == "[key]":
         message = f"key {message}"
-    return doc.diagnostic(path, message)
+    return e.doc.diagnostic(e.path, message)
+
+
+# Pydantic's error type -> the handler that explains it; a type not listed gets _worded_by_pydantic.
+_HANDLERS: dict[str, Callable[[_Error], Diagnostic]] = {
+    "missing": _missing_key,
+    "field_rule": _field_rule,
+    **dict.fromkeys(("model_type", "model_attributes_type", "dict_type"), _not_a_mapping),
+    **dict.fromkeys(("too_short", "too_long"), _wrong_length),
+    "literal_error": _unsupported_version,
+    "extra_forbidden": _unknown_key,
+    "union_tag_invalid": _unknown_type,
+    "union_tag_not_found": _missing_type,
+    "transform_step": _unknown_transform_step,
+    "background": _bad_background,
+    **dict.fromkeys(("texture_slot", "material_slot", "medium_slot", "group_slot"), _bad_slot),
+    "value_error": _validator_message,
+    "string_pattern_mismatch": _invalid_name,
+    **dict.fromkeys(_BOUND_SIGNS, _out_of_bounds),
+}
+
+
+def _diagnostic_for(err: dict, doc: SourceDocument, root: type) -> Diagnostic:
+    """One pydantic error as a diagnostic, placed in the file and worded by its type's handler."""
+    loc = tuple(err["loc"])
+    e = _Error(
+        kind=err["type"],
+        msg=err["msg"],
+        loc=loc,
+        ctx=err.get("ctx") or {},
+        path=data_path(doc.data, loc),
+        found=err.get("input"),
+        doc=doc,
+        root=root,
+    )
+    return _HANDLERS.get(e.kind, _worded_by_pydantic)(e)
 
 
 def diagnostics_from(exc: ValidationError, doc: SourceDocument, root: type) -> Iterator[Diagnostic]:
@@ -234,7 +304,7 @@ def diagnostics_from(exc: ValidationError, doc: SourceDocument, root: type) -> I
     for err in errors:
         if err["type"] == "missing" and (data_path(doc.data, tuple(err["loc"])), err["loc"][-1]) in misspelt:
             continue
-        diag = _diagnostics_for(err, doc, root)
+        diag = _diagnostic_for(err, doc, root)
         key = (diag.line, diag.column, diag.message)
         if key not in seen:
             seen.add(key)

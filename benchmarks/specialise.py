@@ -113,7 +113,7 @@ COMPILE_SNIPPET = """
 import sys, time
 from renderer.compile import compile_scene
 from renderer.render import render
-from renderer.variants import KernelFeatures, features_of
+from renderer.variants import KernelFeatures
 from scenefmt.validation import load
 flags = dict(zip({names!r}, map(bool, {values!r})))
 graph = load({scene!r}).graph
@@ -155,7 +155,7 @@ def main() -> int:
     for path in SCENES:
         graph = with_width(load(path).graph, BOOK_WIDTH)
         flat = compile_scene(graph)
-        features = features_of(flat)
+        features = features_of(graph)
         compile_scene_of.setdefault(features.tag, path)
         medians, films = interleaved(graph, flat, {"spec": features, "general": GENERAL}, args.reps, BOOK_SPP)
         diff = float(np.max(np.abs(films["spec"].total - films["general"].total)))
@@ -170,7 +170,7 @@ def main() -> int:
     out("|---|---|")
     out(f"| all (general) | {cold_compile_seconds(GENERAL, SCENES[0]):.1f} s |")
     for tag, path in sorted(compile_scene_of.items()):
-        features = features_of(compile_scene(load(path).graph))
+        features = features_of(load(path).graph)
         out(f"| {tag} | {cold_compile_seconds(features, path):.1f} s |")
     out()
     out("## Each effect: absent, or present but never reached (400x267 px, 16 spp, depth 20)")
@@ -179,12 +179,12 @@ def main() -> int:
     out("|---|---|---|---|---|---|---|")
     absent_graph = loads(pair_scene(None)).graph
     absent_flat = compile_scene(absent_graph)
-    none = features_of(absent_flat)
+    none = features_of(absent_graph)
     assert none.tag == "none", none.tag
     for effect in PAIRS:
         present_graph = loads(pair_scene(effect)).graph
         present_flat = compile_scene(present_graph)
-        present = features_of(present_flat)
+        present = features_of(present_graph)
         assert present.tag == effect, (effect, present.tag)
         render(present_graph, flat=present_flat, features=present, samples=1)
         a_times, p_times = {"spec": [], "one": [], "general": []}, []

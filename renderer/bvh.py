@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from . import jit_cache
+from renderer import jit_cache  # absolute: see kernels/__init__.py
 from .config import BVH_BINS, BVH_MAX_LEAF
 
 jit_cache.configure()  # before the compiled functions below are defined

@@ -1,7 +1,9 @@
 """The flat scene: every table the kernels read, as one NamedTuple of numpy arrays.
 
-Tables are few and wide on purpose: Numba passes each array to a function as a struct of
-several words, so the hot functions take a handful of arrays rather than the whole tuple.
+Each table's columns are declared once, beside the code that writes and reads them (see
+`columns.py`; `python -m renderer.columns` prints them all). Tables are few and wide on
+purpose: Numba passes each array to a function as a struct of several words, so the hot
+functions take a handful of arrays rather than the whole tuple.
 """
 
 from __future__ import annotations
@@ -16,32 +18,30 @@ if TYPE_CHECKING:
 
 class FlatScene(NamedTuple):
     # Primitives of every bottom-level tree, each tree's rows contiguous and in leaf order.
-    prims_i: np.ndarray  # (P, 2) int32: kind, material (a medium's phase function for MEDIUM)
-    prims_f: np.ndarray  # (P, 16) float64, see layout.py
-    # Boundary rows of media (not in any tree), same row layout as primitives.
+    prims_i: np.ndarray  # shapes.PRIMITIVE_I
+    prims_f: np.ndarray  # by kind: shapes/spheres.py, planar.py, boxes.py, media.py
+    # Boundary rows of media (not in any tree), laid out as primitives are.
     bnd_i: np.ndarray  # (B,) int32 kind
-    bnd_f: np.ndarray  # (B, 16) float64
+    bnd_f: np.ndarray  # as prims_f
     # Nodes of every bottom-level tree, four-wide (bvh.WideBvh); child and leaf offsets are absolute.
-    nodes_f: np.ndarray  # (N, 24) float64: the four child boxes, by coordinate (lo x of 0..3, lo y, ... hi z)
-    nodes_i: np.ndarray  # (N, 8) int64: per child, node or first primitive; then per child, primitive count
-    #                      (0: an interior node, -1: an empty slot, whose box is nan)
-    # Instances (the top level) and the tree over them (its leaves index instances directly).
-    inst_i: np.ndarray  # (I, 3) int32: root node of the instance's tree, 1 if untransformed, serial number
-    inst_f: np.ndarray  # (I, 24) float64: world_from_object then object_from_world, 3x4 row-major
-    # Binary: node k's first child is k + 1, its second child the value in column 0.
-    tlas_f: np.ndarray  # (K, 6) float64: box lo, hi
-    tlas_i: np.ndarray  # (K, 3) int32: second child or first instance, instance count (0: interior), split axis
-    # Materials and textures.
-    mat_i: np.ndarray  # (M, 3) int32: kind, texture of albedo or emission, 1 if that texture reads (u, v)
-    mat_f: np.ndarray  # (M, 2) float64: metal fuzz, dielectric ior
-    tex_i: np.ndarray  # (T, 3) int32: kind, child textures (checker even, odd)
-    tex_f: np.ndarray  # (T, 7) float64: colour, four parameters
+    nodes_f: np.ndarray  # (N, 24) the four child boxes, by coordinate (bvh.WideBvh)
+    nodes_i: np.ndarray  # kernels/traverse.NODE_I
+    # Instances (the top level) and the binary tree over them; kernels/traverse.py.
+    inst_i: np.ndarray  # INSTANCE_I
+    inst_f: np.ndarray  # INSTANCE_F
+    tlas_f: np.ndarray  # TLAS_F
+    tlas_i: np.ndarray  # TLAS_I
+    # Materials and textures: materials.py, textures.py.
+    mat_i: np.ndarray  # MATERIAL_I
+    mat_f: np.ndarray  # MATERIAL_F
+    tex_i: np.ndarray  # TEXTURE_I
+    tex_f: np.ndarray  # by kind: SOLID_F, CHECKER_F, IMAGE_F, NOISE_F
     texels: np.ndarray  # (K, 3) float32 linear RGB of every image, row 0 at the top
-    noise_perm: np.ndarray  # (Q, 3, 256) int32
-    noise_vec: np.ndarray  # (Q, 256, 3) float64
-    # Camera, background and shutter.
-    camera: np.ndarray  # (21,) float64: origin, pixel00, du, dv, disk_u, disk_v, lens radius, open, close
-    background: np.ndarray  # (7,) float64: kind, colour or bottom, top
+    noise_perm: np.ndarray  # (Q, 3, 256) int32: Perlin permutations
+    noise_vec: np.ndarray  # (Q, 256, 3) float64: Perlin gradients
+    # Camera and background: camera.CAMERA, background.py.
+    camera: np.ndarray
+    background: np.ndarray
 
 
 class Frame(NamedTuple):

@@ -16,7 +16,7 @@ import numpy as np
 from .film import Film, relative_noise
 from .flat import FlatScene, Frame
 from .jit_cache import configure as kernel_cache_folder
-from .variants import KernelFeatures, features_of, first_kernel, is_compiled, kernels_for, mark_compiled, worth_specialising
+from .variants import GENERAL, KernelFeatures, features_of, first_kernel, is_compiled, kernels_for, mark_compiled, worth_specialising
 
 if TYPE_CHECKING:
     from scenefmt.graph import SceneGraph
@@ -61,7 +61,7 @@ def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) ->
         from .compile import compile_scene
 
         flat = compile_scene(graph)
-    return render_flat(flat, Frame.of(graph), **options)
+    return render_flat(flat, Frame.of(graph), needed=features_of(graph), **options)
 
 
 def render_flat(
@@ -77,6 +77,7 @@ def render_flat(
     pass_seconds: float = PASS_SECONDS,
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
+    needed: KernelFeatures = GENERAL,
     features: Optional[KernelFeatures] = None,
     kernel: str = "auto",
     notify: Optional[Callable[[str], None]] = None,
@@ -90,7 +91,8 @@ def render_flat(
     `film.estimate_noise`) the render also stops when the time is spent or the estimated noise
     falls below the target; `samples` is then the cap.
 
-    Any kernel that has the paths the scene reaches gives the same image. `kernel` chooses
+    `needed` is the kernel paths the scene reaches (`variants.features_of` of its graph; every
+    path if not given). Any kernel that has them gives the same image. `kernel` chooses
     ("auto", "general" or "specialised", see `variants.first_kernel`); with "auto" a render
     that starts with the general kernel switches to the specialised one when the rest of it
     is long enough to repay the compile (`variants.worth_specialising`). `features` names a
@@ -101,7 +103,6 @@ def render_flat(
     depth = max_depth if max_depth is not None else frame.max_depth
     seed = seed if seed is not None else frame.seed
     stats = RenderStats(target_samples=target)
-    needed = features_of(flat)
     if features is not None and not features.covers(needed):
         raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
     stats.features = features if features is not None else first_kernel(needed, kernel)

@@ -1,10 +1,58 @@
-"""Texture data prepared in Python: image texels (linearised) and Perlin lattice tables."""
+"""Textures: their tables, their flattening, and their lookup in the kernels.
+
+Solid colours, 3-D checkers, images read at surface (u, v), and Perlin noise. Image texels
+are linearised here, and the Perlin lattice tables made, in Python; `TextureTables` collects
+a scene's texture rows as materials refer to them; `texture_value` reads them in the kernels.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
+from numba import njit
+
+from .columns import Column, Layout
+from .kernel_flags import CHECKER, IMAGE, NOISE
+
+# Type codes.
+TEX_SOLID = 0
+TEX_CHECKER = 1
+TEX_IMAGE = 2
+TEX_NOISE = 3
+NOISE_FORMS = {"plain": 0, "turbulence": 1, "marble": 2}
+NOISE_PLAIN, NOISE_TURBULENCE, NOISE_MARBLE = NOISE_FORMS["plain"], NOISE_FORMS["turbulence"], NOISE_FORMS["marble"]
+
+TEXTURE_I = Layout("tex_i", "int32", [
+    Column("kind", 1, "type code: TEX_SOLID, TEX_CHECKER, TEX_IMAGE or TEX_NOISE"),
+    Column("even", 1, "checker: texture row of the even cells (-1 otherwise)"),
+    Column("odd", 1, "checker: texture row of the odd cells (-1 otherwise)"),
+])
+_COLOR = Column("color", 3, "linear RGB: the colour (solid), or what the noise value scales (noise)")
+TEXTURE_WIDTH = 7
+SOLID_F = Layout("tex_f solid", "float64", [_COLOR], TEXTURE_WIDTH)
+CHECKER_F = Layout("tex_f checker", "float64", [_COLOR, Column("inv_scale", 1, "1 / the cell size")], TEXTURE_WIDTH)
+IMAGE_F = Layout("tex_f image", "float64", [
+    _COLOR,
+    Column("texels", 1, "row of the image's first texel in `texels`"),
+    Column("width", 1, "width in texels"),
+    Column("height", 1, "height in texels"),
+], TEXTURE_WIDTH)
+NOISE_F = Layout("tex_f noise", "float64", [
+    _COLOR,
+    Column("scale", 1, "frequency of the noise"),
+    Column("form", 1, "NOISE_PLAIN, NOISE_TURBULENCE or NOISE_MARBLE"),
+    Column("octaves", 1, "turbulence octaves"),
+    Column("table", 1, "which Perlin lattice in noise_perm and noise_vec"),
+], TEXTURE_WIDTH)
+for _layout in (CHECKER_F, IMAGE_F, NOISE_F):
+    SOLID_F.shares(_layout, "color")
+TEX_KIND, TEX_EVEN, TEX_ODD = TEXTURE_I.offsets("kind", "even", "odd")
+TEX_COLOR = SOLID_F.offset("color")
+TEX_INV_SCALE = CHECKER_F.offset("inv_scale")
+TEX_TEXELS, TEX_WIDTH, TEX_HEIGHT = IMAGE_F.offsets("texels", "width", "height")
+TEX_SCALE, TEX_FORM, TEX_OCTAVES, TEX_TABLE = NOISE_F.offsets("scale", "form", "octaves", "table")
 
 
 def srgb_to_linear(values: np.ndarray) -> np.ndarray:
@@ -50,3 +98,160 @@ def perlin_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:
             vec[k] = v / np.sqrt(n)
             k += 1
     return perm, vec
+
+
+class TextureTables:
+    """A scene's texture rows, made as materials and media refer to texture nodes (each node once)."""
+
+    def __init__(self):
+        self.ints: list[list] = []
+        self.floats: list[list] = []
+        self.texel_chunks: list[np.ndarray] = []
+        self.texel_count = 0
+        self.noise_seeds: list[int] = []
+        self._rows: dict[int, int] = {}
+        self._white: int | None = None
+
+    def add(self, node) -> int:
+        """The row of texture node `node` (a scenefmt.graph.TextureNode), added with its children."""
+        key = id(node)
+        if key in self._rows:
+            return self._rows[key]
+        m = node.model
+        index = len(self.ints)
+        self._rows[key] = index
+        self.ints.append([])  # reserve the slot; children come after
+        self.floats.append([])
+        ints = TEXTURE_I.row(kind=TEX_SOLID, even=-1, odd=-1)
+        if m.type == "solid":
+            floats = SOLID_F.row(color=m.color)
+        elif m.type == "checker":
+            ints = TEXTURE_I.row(kind=TEX_CHECKER, even=self.add(node.inputs["even"]), odd=self.add(node.inputs["odd"]))
+            floats = CHECKER_F.row(inv_scale=1.0 / m.scale)
+        elif m.type == "image":
+            from scenefmt.diagnostics import format_path
+
+            try:
+                texels = load_image_texels(node.image_path, m.colorspace)
+            except ValueError as exc:
+                raise ValueError(f"image texture at {format_path(node.path)}: {exc}") from None
+            h, w = texels.shape[:2]
+            ints = TEXTURE_I.row(kind=TEX_IMAGE, even=-1, odd=-1)
+            floats = IMAGE_F.row(texels=float(self.texel_count), width=float(w), height=float(h))
+            self.texel_chunks.append(texels.reshape(-1, 3))
+            self.texel_count += w * h
+        else:
+            ints = TEXTURE_I.row(kind=TEX_NOISE, even=-1, odd=-1)
+            floats = NOISE_F.row(color=m.color, scale=m.scale, form=float(NOISE_FORMS[m.form]),
+                                 octaves=float(m.octaves), table=float(len(self.noise_seeds)))
+            self.noise_seeds.append(m.seed)
+        self.ints[index], self.floats[index] = ints, floats
+        return index
+
+    def white(self) -> int:
+        """The row of a solid white texture, added once (a dielectric attenuates by it)."""
+        if self._white is None:
+            self._white = len(self.ints)
+            self.ints.append(TEXTURE_I.row(kind=TEX_SOLID, even=-1, odd=-1))
+            self.floats.append(SOLID_F.row(color=(1.0, 1.0, 1.0)))
+        return self._white
+
+    def reads_uv(self, row: int) -> bool:
+        """Whether texture `row` looks at surface coordinates: an image, or a checker over one.
+
+        The kernels compute a hit's (u, v) only for such materials: on a sphere that takes an
+        arc cosine and an arc tangent, which every other texture would pay for nothing.
+        """
+        ints = self.ints[row]
+        if ints[TEX_KIND] == TEX_IMAGE:
+            return True
+        return ints[TEX_KIND] == TEX_CHECKER and (self.reads_uv(ints[TEX_EVEN]) or self.reads_uv(ints[TEX_ODD]))
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The FlatScene fields of the textures: tex_i, tex_f, texels, noise_perm, noise_vec."""
+        n = len(self.ints)
+        texels = (np.concatenate(self.texel_chunks).astype(np.float32) if self.texel_chunks
+                  else np.zeros((1, 3), np.float32))
+        if self.noise_seeds:
+            lattices = [perlin_tables(seed) for seed in self.noise_seeds]
+            noise_perm = np.stack([p for p, _ in lattices]).astype(np.int32)
+            noise_vec = np.stack([v for _, v in lattices]).astype(np.float64)
+        else:
+            noise_perm = np.zeros((1, 3, 256), np.int32)
+            noise_vec = np.zeros((1, 256, 3), np.float64)
+        return {
+            "tex_i": np.array(self.ints, np.int32).reshape(n, TEXTURE_I.width),
+            "tex_f": np.array(self.floats, np.float64).reshape(n, TEXTURE_WIDTH),
+            "texels": texels,
+            "noise_perm": noise_perm,
+            "noise_vec": noise_vec,
+        }
+
+
+# --- the kernels ------------------------------------------------------------------------------
+
+
+@njit(_nrt=False, cache=True, error_model="numpy")
+def perlin(perm, vec, q, x, y, z):
+    """Gradient noise at (x, y, z) from table set q, in about [-1, 1]; continuous everywhere."""
+    fx, fy, fz = math.floor(x), math.floor(y), math.floor(z)
+    u, v, w = x - fx, y - fy, z - fz
+    i, j, k = int(fx), int(fy), int(fz)
+    # Hermite smoothing once, inside the interpolation (the weight vectors use the raw offsets).
+    uu, vv, ww = u * u * (3.0 - 2.0 * u), v * v * (3.0 - 2.0 * v), w * w * (3.0 - 2.0 * w)
+    accum = 0.0
+    for di in range(2):
+        for dj in range(2):
+            for dk in range(2):
+                h = perm[q, 0, (i + di) & 255] ^ perm[q, 1, (j + dj) & 255] ^ perm[q, 2, (k + dk) & 255]
+                gx, gy, gz = vec[q, h, 0], vec[q, h, 1], vec[q, h, 2]
+                dot = gx * (u - di) + gy * (v - dj) + gz * (w - dk)
+                accum += (
+                    (di * uu + (1 - di) * (1.0 - uu))
+                    * (dj * vv + (1 - dj) * (1.0 - vv))
+                    * (dk * ww + (1 - dk) * (1.0 - ww))
+                    * dot
+                )
+    return accum
+
+
+@njit(_nrt=False, cache=True, error_model="numpy")
+def turbulence(perm, vec, q, x, y, z, octaves):
+    accum = 0.0
+    weight = 1.0
+    for _ in range(octaves):
+        accum += weight * perlin(perm, vec, q, x, y, z)
+        weight *= 0.5
+        x, y, z = x * 2.0, y * 2.0, z * 2.0
+    return abs(accum)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, t, u, v, p):
+    """Colour of texture t at surface coordinates (u, v) and point p."""
+    # Checkers choose a child texture: descend iteratively (kernels avoid recursion).
+    while CHECKER and tex_i[t, TEX_KIND] == TEX_CHECKER:
+        inv = tex_f[t, TEX_INV_SCALE]
+        s = math.floor(inv * p[0]) + math.floor(inv * p[1]) + math.floor(inv * p[2])
+        t = tex_i[t, TEX_EVEN] if int(s) % 2 == 0 else tex_i[t, TEX_ODD]
+    kind = tex_i[t, TEX_KIND]
+    if kind == TEX_SOLID:
+        return (tex_f[t, TEX_COLOR], tex_f[t, TEX_COLOR + 1], tex_f[t, TEX_COLOR + 2])
+    if IMAGE and kind == TEX_IMAGE:
+        offset, width, height = int(tex_f[t, TEX_TEXELS]), int(tex_f[t, TEX_WIDTH]), int(tex_f[t, TEX_HEIGHT])
+        uc = min(1.0, max(0.0, u))
+        vc = 1.0 - min(1.0, max(0.0, v))  # image rows run top to bottom
+        i = min(width - 1, int(uc * width))
+        j = min(height - 1, int(vc * height))
+        k = offset + j * width + i
+        return (float(texels[k, 0]), float(texels[k, 1]), float(texels[k, 2]))
+    if NOISE:  # the only kind left: TEX_NOISE
+        scale, form, octaves, q = tex_f[t, TEX_SCALE], int(tex_f[t, TEX_FORM]), int(tex_f[t, TEX_OCTAVES]), int(tex_f[t, TEX_TABLE])
+        if form == NOISE_PLAIN:
+            value = 0.5 * (1.0 + perlin(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2]))
+        elif form == NOISE_MARBLE:
+            value = 0.5 * (1.0 + math.sin(scale * p[2] + 10.0 * turbulence(noise_perm, noise_vec, q, p[0], p[1], p[2], octaves)))
+        else:
+            value = turbulence(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2], octaves)
+        return (tex_f[t, TEX_COLOR] * value, tex_f[t, TEX_COLOR + 1] * value, tex_f[t, TEX_COLOR + 2] * value)
+    return (tex_f[t, TEX_COLOR], tex_f[t, TEX_COLOR + 1], tex_f[t, TEX_COLOR + 2])  # unreachable: the scene has no noise texture

@@ -1,18 +1,19 @@
 """Kernels specialised to a scene's feature set: unused paths are not compiled at all.
 
-`renderer.kernels` is the general kernel: every flag in `kernels/features.py` is on. For a
-scene that needs fewer paths, `kernels_for` loads another copy of the kernel package under
-its own module name, with the features module replaced by one holding that scene's flags.
-Numba compiles module globals in as constants and prunes the dead branches, so the copy holds
-no code for an effect the scene lacks.
+The renderer package as shipped is the general kernel: every flag in `kernel_flags.py` is on.
+For a scene that needs fewer paths, `kernels_for` imports the renderer package a second time
+under another name (`renderer_<flags>`), with `kernel_flags` replaced by a module holding that
+scene's flags. Numba compiles module globals in as constants and prunes the dead branches,
+so the copy holds no code for an effect the scene lacks. Every module with compiled code
+therefore imports its siblings relatively, so a copy's modules see the copy's flags.
 
 Each copy gets its own Numba disk-cache folder (a subfolder named after its flags): Numba
 keys cached code by source file and signature, not by globals, so copies sharing a folder
 would load each other's machine code.
 
-The flags come from the flat scene, not from the scene description: they say exactly which
-paths the kernels can reach, so a specialised kernel never lacks one a scene needs, and
-renders the same image as the general kernel, bit for bit.
+The flags come from the scene's effects (`scenefmt.effects.summarize`), the same analysis
+`rt validate` prints: an effect is off only where the scene cannot reach its path, so a
+specialised kernel renders the same image as the general kernel, bit for bit.
 """
 
 from __future__ import annotations
@@ -28,21 +29,19 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numba
-import numpy as np
 
 from . import jit_cache
-from . import layout as L
-from .flat import FlatScene
-from .kernels import features as _general_flags
+from . import kernel_flags as _general_flags
 
-_KERNELS_DIR = Path(__file__).resolve().parent / "kernels"
+_RENDERER_DIR = Path(__file__).resolve().parent
 _loaded: dict[str, types.ModuleType] = {}
 _lock = threading.Lock()
 
 
 @dataclass(frozen=True)
 class KernelFeatures:
-    """The optional kernel paths a scene reaches; field names match `kernels/features.py`."""
+    """The optional kernel paths a scene reaches; field names match `kernel_flags.py` and the
+    keys of `scenefmt.effects.EFFECTS`."""
 
     motion: bool = True
     defocus: bool = True
@@ -77,31 +76,11 @@ GENERAL = KernelFeatures()
 assert tuple(f.name.upper() for f in fields(KernelFeatures)) == _general_flags.NAMES
 
 
-def features_of(flat: FlatScene) -> KernelFeatures:
-    """The kernel paths a flat scene can reach."""
-    prim_kinds = set(np.unique(flat.prims_i[:, 0]).tolist()) if len(flat.prims_i) else set()
-    mat_kinds = set(np.unique(flat.mat_i[:, 0]).tolist()) if len(flat.mat_i) else set()
-    tex_kinds = set(np.unique(flat.tex_i[:, 0]).tolist()) if len(flat.tex_i) else set()
-    cam = flat.camera
+def features_of(graph) -> KernelFeatures:
+    """The kernel paths a scene graph reaches: its effects, as `rt validate` reports them."""
+    from scenefmt.effects import summarize
 
-    def velocity(rows_f, rows_kind):
-        moving = rows_kind == L.MOVING_SPHERE
-        return bool(moving.any() and np.any(rows_f[moving, 4:7] != 0.0))
-
-    moves = velocity(flat.prims_f, flat.prims_i[:, 0]) or velocity(flat.bnd_f, flat.bnd_i)
-    n_inst = len(flat.inst_i)
-    return KernelFeatures(
-        motion=bool(cam[20] > cam[19] and moves),
-        defocus=bool(cam[18] > 0.0),
-        media=L.MEDIUM in prim_kinds,
-        instances=n_inst > 1 or (n_inst == 1 and flat.inst_i[0, 1] != 1),
-        checker=L.TEX_CHECKER in tex_kinds,
-        image=L.TEX_IMAGE in tex_kinds,
-        noise=L.TEX_NOISE in tex_kinds,
-        emitters=L.DIFFUSE_LIGHT in mat_kinds,
-        dielectrics=L.DIELECTRIC in mat_kinds,
-        sky=bool(flat.background[0] == L.BACKGROUND_SKY),
-    )
+    return KernelFeatures(**summarize(graph).kernel_paths)
 
 
 # How a render chooses its kernel (`render_flat(kernel=...)`, `rt render --kernel`).
@@ -173,14 +152,14 @@ def kernels_for(features: KernelFeatures) -> types.ModuleType:
     with _lock:
         if tag in _loaded:
             return _loaded[tag]
-        package = f"{__package__}._kernels_{tag.replace('+', '_')}"
+        package = f"renderer_{tag.replace('+', '_')}"
         spec = importlib.util.spec_from_file_location(
-            package, _KERNELS_DIR / "__init__.py", submodule_search_locations=[str(_KERNELS_DIR)]
+            package, _RENDERER_DIR / "__init__.py", submodule_search_locations=[str(_RENDERER_DIR)]
         )
         module = importlib.util.module_from_spec(spec)
         sys.modules[package] = module
         spec.loader.exec_module(module)
-        flags = types.ModuleType(f"{package}.features", "Flags of one specialised kernel (generated).")
+        flags = types.ModuleType(f"{package}.kernel_flags", "Flags of one specialised kernel (generated).")
         for f in fields(KernelFeatures):
             setattr(flags, f.name.upper(), getattr(features, f.name))
         flags.NAMES = _general_flags.NAMES
@@ -188,7 +167,7 @@ def kernels_for(features: KernelFeatures) -> types.ModuleType:
         saved = numba.config.CACHE_DIR
         numba.config.CACHE_DIR = _variant_cache_dir(tag)
         try:
-            integrator = importlib.import_module(f"{package}.integrator")
+            integrator = importlib.import_module(f"{package}.kernels.integrator")
         finally:
             numba.config.CACHE_DIR = saved
         _loaded[tag] = integrator

@@ -141,7 +141,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         from scenefmt.writing import dumps
 
         fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
-    return PreparedScene(flat, Frame.of(graph), features_of(flat), budget_seconds, fingerprint)
+    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint)
 
 
 class Progress:
@@ -252,7 +252,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         result = render_flat(
             flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
             should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
-            noise_target=opts.noise, kernel=opts.kernel, notify=bar.notify,
+            noise_target=opts.noise, needed=features, kernel=opts.kernel, notify=bar.notify,
         )
     except ValueError as exc:
         failure = str(exc)

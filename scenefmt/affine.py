@@ -73,3 +73,63 @@ def apply_point(m: Affine, p: Sequence[float]) -> tuple[float, float, float]:
 
 def is_identity(m: Affine) -> bool:
     return m == IDENTITY
+
+
+# --- 3-vectors as tuples of Python floats ---------------------------------------------------
+# Flattening makes a row per shape; numpy's per-call cost on 3-vectors made it several times
+# slower than these.
+
+Vec = tuple[float, float, float]
+
+
+def add(a, b) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def sub(a, b) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def scale(a, s: float) -> Vec:
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+def dot(a, b) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a, b) -> Vec:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def unit(a) -> Vec:
+    length = math.sqrt(dot(a, a))
+    return (a[0] / length, a[1] / length, a[2] / length)
+
+
+def linear(m: Affine) -> tuple[Vec, Vec, Vec]:
+    """The 3x3 linear part of an affine map, as rows."""
+    return tuple(tuple(float(x) for x in row[:3]) for row in m)  # type: ignore[return-value]
+
+
+def apply_linear(lin, v) -> Vec:
+    """lin @ v for a 3x3 matrix given as rows."""
+    return tuple(dot(row, v) for row in lin)  # type: ignore[return-value]
+
+
+def determinant(lin) -> float:
+    return dot(lin[0], cross(lin[1], lin[2]))
+
+
+def similarity_scale(lin) -> float | None:
+    """s when lin = s * (an orthogonal matrix), else None: lin^T lin = s^2 I within 1e-9."""
+    cols = [tuple(row[k] for row in lin) for k in range(3)]
+    s2 = dot(cols[0], cols[0])
+    if s2 <= 0:
+        return None
+    for i in range(3):
+        for j in range(3):
+            target = s2 if i == j else 0.0
+            if not abs(dot(cols[i], cols[j]) - target) <= 1e-12 * s2 + 1e-9 * abs(target):
+                return None
+    return math.sqrt(s2)

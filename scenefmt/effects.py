@@ -14,15 +14,21 @@ from .diagnostics import format_path
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, TextureNode
 from .scene import SkyBackground
 
-EFFECT_NAMES = (
-    "motion blur",
-    "defocus",
-    "media",
-    "textures",
-    "instances",
-    "emitters",
-    "dielectrics",
+# (key, name): the key is the kernel path's flag (renderer/kernel_flags.py), the name is what
+# users read.
+EFFECTS = (
+    ("motion", "motion blur"),
+    ("defocus", "defocus"),
+    ("media", "media"),
+    ("instances", "instances"),
+    ("checker", "checker textures"),
+    ("image", "image textures"),
+    ("noise", "noise textures"),
+    ("emitters", "emitters"),
+    ("dielectrics", "dielectrics"),
+    ("sky", "sky background"),
 )
+EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
 
 @dataclass(frozen=True)
@@ -30,6 +36,7 @@ class Effect:
     name: str
     on: bool
     reason: str = ""
+    key: str = ""  # the kernel path it switches on
 
     def __str__(self) -> str:
         return f"{self.name}: {'on' if self.on else 'off'}" + (f" ({self.reason})" if self.reason else "")
@@ -47,7 +54,13 @@ class SceneSummary:
     effects: list[Effect] = field(default_factory=list)
 
     def effect(self, name: str) -> Effect:
-        return next(e for e in self.effects if e.name == name)
+        """The effect called `name` (as printed) or keyed `name` (as the kernel's flag)."""
+        return next(e for e in self.effects if name in (e.name, e.key))
+
+    @property
+    def kernel_paths(self) -> dict[str, bool]:
+        """Which kernel paths the scene needs, by flag name."""
+        return {e.key: e.on for e in self.effects}
 
     def to_json(self) -> dict:
         return {
@@ -82,19 +95,29 @@ def _first(items, text) -> str:
     return text(items[0]) + (f" and {len(items) - 1} more" if len(items) > 1 else "")
 
 
+def _needs_instance(member: Union[ShapeNode, InstanceNode]) -> Union[str, None]:
+    """Why a member keeps a transform of its own in the kernels (None if it is baked in)."""
+    if isinstance(member, InstanceNode):
+        return "is an instance"
+    if member.kind in ("sphere", "moving_sphere") and affine.similarity_scale(affine.linear(member.transform)) is None:
+        return "is a sphere under a non-uniform scale or shear"
+    return None
+
+
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
     with_media: list[ShapeNode] = []
-    placed: list[Union[ShapeNode, InstanceNode]] = []
+    placed: list[tuple[Union[ShapeNode, InstanceNode], str]] = []
     emitters: list = []
     dielectrics: list = []
-    textures_by_kind: dict[str, list[TextureNode]] = {}
+    textures_by_kind: dict[str, list[ShapeNode]] = {}
     for member, inside in _members(graph.root, set()):
         counts = summary.instanced_shape_counts if inside else summary.shape_counts
         counts[member.kind] = counts.get(member.kind, 0) + 1
-        if isinstance(member, InstanceNode) or not affine.is_identity(member.transform):
-            placed.append(member)
+        why = _needs_instance(member)
+        if why is not None:
+            placed.append((member, why))
         if isinstance(member, ShapeNode):
             if member.kind == "moving_sphere" and member.model.center0 != member.model.center1:
                 moving.append(member)
@@ -113,40 +136,31 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                         textures_by_kind.setdefault(tex.kind, []).append(member)
     shutter = graph.shutter
     cam = graph.camera
-    effects = []
+    found: dict[str, Effect] = {}
     if moving and shutter.close > shutter.open:
-        effects.append(Effect("motion blur", True, _first(moving, lambda m: f"{format_path(m.path)} moves, shutter {shutter.open:g}..{shutter.close:g}")))
+        found["motion"] = Effect("", True, _first(moving, lambda m: f"{format_path(m.path)} moves, shutter {shutter.open:g}..{shutter.close:g}"))
     elif moving:
-        effects.append(Effect("motion blur", False, f"{format_path(moving[0].path)} moves, but the shutter interval is empty"))
-    else:
-        effects.append(Effect("motion blur", False))
+        found["motion"] = Effect("", False, f"{format_path(moving[0].path)} moves, but the shutter interval is empty")
     if cam.lens_radius > 0:
         how = f"aperture {cam.aperture:g}" if cam.aperture else f"defocus_angle {cam.defocus_angle:g}"
-        effects.append(Effect("defocus", True, f"camera {how}, focus distance {cam.focus:g}"))
-    else:
-        effects.append(Effect("defocus", False))
-    effects.append(
-        Effect("media", True, _first(with_media, lambda m: f"{format_path(m.path)} holds {m.interior.name or 'a medium'}"))
-        if with_media else Effect("media", False)
-    )
+        found["defocus"] = Effect("", True, f"camera {how}, focus distance {cam.focus:g}")
+    if with_media:
+        found["media"] = Effect("", True, _first(with_media, lambda m: f"{format_path(m.path)} holds {m.interior.name or 'a medium'}"))
+    if placed:
+        found["instances"] = Effect("", True, _first(placed, lambda mw: f"{format_path(mw[0].path)} {mw[1]}"))
+    for kind, members in textures_by_kind.items():
+        found[kind] = Effect("", True, _first(members, lambda m: f"{format_path(m.path)} uses one"))
+    if emitters:
+        found["emitters"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} emits"))
+    if dielectrics:
+        found["dielectrics"] = Effect("", True, _first(dielectrics, lambda m: f"{format_path(m.path)} is glass-like"))
+    if isinstance(graph.background, SkyBackground):
+        found["sky"] = Effect("", True, "background: {type: sky}")
+    summary.effects = [
+        Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
+        for key, name in EFFECTS
+    ]
     summary.texture_kinds = sorted(textures_by_kind)
-    effects.append(
-        Effect("textures", True, ", ".join(f"{k} on {format_path(v[0].path)}" for k, v in sorted(textures_by_kind.items())))
-        if textures_by_kind else Effect("textures", False)
-    )
-    effects.append(
-        Effect("instances", True, _first(placed, lambda m: f"{format_path(m.path)} is " + ("an instance" if isinstance(m, InstanceNode) else "transformed")))
-        if placed else Effect("instances", False)
-    )
-    effects.append(
-        Effect("emitters", True, _first(emitters, lambda m: f"{format_path(m.path)} emits"))
-        if emitters else Effect("emitters", False)
-    )
-    effects.append(
-        Effect("dielectrics", True, _first(dielectrics, lambda m: f"{format_path(m.path)} is glass-like"))
-        if dielectrics else Effect("dielectrics", False)
-    )
-    summary.effects = effects
     summary.background = "sky" if isinstance(graph.background, SkyBackground) else "solid"
     summary.definition_counts = {
         "textures": len({id(t) for t in graph.textures if t.name is not None}),

@@ -3,73 +3,19 @@
 import math
 
 import numpy as np
-from numba import njit, prange, uint64
+from numba import njit, prange
 
+from ..background import background
+from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..layout import BACKGROUND_SKY, DIFFUSE_LIGHT, MEDIUM
-from .features import DEFOCUS, EMITTERS, IMAGE, INSTANCES, MEDIA, MOTION, SKY
-from .geometry import spawn_origin, surface
-from .materials import is_zero, scatter
-from .rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, bounce_dim, path_key, uniform
-from .textures import texture_value
-from .traverse import intersect_scene
+from ..kernel_flags import EMITTERS, IMAGE, INSTANCES, MEDIA
+from ..materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
+from ..shapes import MEDIUM, PRIM_KIND, PRIM_MATERIAL
+from ..shapes.dispatch import spawn_origin, surface
+from ..textures import texture_value
+from .rng import bounce_dim, path_key
+from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
 from .vec import dot, madd, neg, unit, xform_normal, xform_point, xform_vector
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def background(bg, d):
-    if SKY and bg[0] == BACKGROUND_SKY:
-        a = 0.5 * (unit(d)[1] + 1.0)
-        return ((1.0 - a) * bg[1] + a * bg[4], (1.0 - a) * bg[2] + a * bg[5], (1.0 - a) * bg[3] + a * bg[6])
-    return (bg[1], bg[2], bg[3])
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def lens_point(key):
-    """A uniform point (x, y) of the unit disk for the path with `key`.
-
-    Points of the square [-1, 1]^2 are drawn until one falls inside (pi/4 of them do), which
-    costs no sine or cosine: those took 6% of a defocused render. Each try uses dimensions of
-    its own, so a kept point is exactly uniform. After eight misses (a chance of 5e-6) the
-    polar form, r = sqrt(U) and an angle, gives the point from two more fresh dimensions.
-    """
-    for k in range(8):
-        if k == 0:
-            x = 2.0 * uniform(key, DIM_LENS_X) - 1.0
-            y = 2.0 * uniform(key, DIM_LENS_Y) - 1.0
-        else:
-            x = 2.0 * uniform(key, DIM_LENS_RETRY + uint64(2 * k)) - 1.0
-            y = 2.0 * uniform(key, DIM_LENS_RETRY + uint64(2 * k + 1)) - 1.0
-        if x * x + y * y < 1.0:
-            return x, y
-    r = math.sqrt(uniform(key, DIM_LENS_RETRY + uint64(16)))
-    phi = 2.0 * math.pi * uniform(key, DIM_LENS_RETRY + uint64(17))
-    return r * math.cos(phi), r * math.sin(phi)
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def camera_ray(cam, i, j, key):
-    """Origin, direction and time of the camera ray through pixel (i, j) for the path with `key`."""
-    ox = uniform(key, DIM_PIXEL_X) - 0.5
-    oy = uniform(key, DIM_PIXEL_Y) - 0.5
-    target = (
-        cam[3] + (i + ox) * cam[6] + (j + oy) * cam[9],
-        cam[4] + (i + ox) * cam[7] + (j + oy) * cam[10],
-        cam[5] + (i + ox) * cam[8] + (j + oy) * cam[11],
-    )
-    origin = (cam[0], cam[1], cam[2])
-    if DEFOCUS and cam[18] > 0.0:
-        lx, ly = lens_point(key)
-        origin = (
-            cam[0] + lx * cam[12] + ly * cam[15],
-            cam[1] + lx * cam[13] + ly * cam[16],
-            cam[2] + lx * cam[14] + ly * cam[17],
-        )
-    into_shutter = 0.0
-    if MOTION:
-        into_shutter = uniform(key, DIM_TIME) * (cam[20] - cam[19])
-    time = cam[19] + into_shutter
-    return origin, (target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]), time
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -90,9 +36,9 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
             g += tg * bg[1]
             b += tb * bg[2]
             break
-        prim_kind = S.prims_i[prim, 0]
-        mat = S.prims_i[prim, 1]
-        kind = S.mat_i[mat, 0]
+        prim_kind = S.prims_i[prim, PRIM_KIND]
+        mat = S.prims_i[prim, PRIM_MATERIAL]
+        kind = S.mat_i[mat, MAT_KIND]
         if MEDIA and prim_kind == MEDIUM:
             # A scattering event inside a medium: no surface, no normal, no (u, v).
             p = madd(o, d, t)
@@ -102,25 +48,25 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
             n_front = n
         else:
             # (u, v) only where the material's texture reads it (an image): see surface().
-            want_uv = IMAGE and S.mat_i[mat, 2] != 0
-            if INSTANCES and S.inst_i[inst, 1] != 1:
-                oo = xform_point(S.inst_f, inst, 12, o)
-                dd = xform_vector(S.inst_f, inst, 12, d)
+            want_uv = IMAGE and S.mat_i[mat, MAT_READS_UV] != 0
+            if INSTANCES and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
+                oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+                dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
                 po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time, want_uv)
-                p = xform_point(S.inst_f, inst, 0, po)
-                n = unit(xform_normal(S.inst_f, inst, 12, no))
+                p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
+                n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
             else:
                 p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time, want_uv)
             front = dot(d, n) < 0.0
             n_front = n if front else neg(n)
-        tex = S.mat_i[mat, 1]
+        tex = S.mat_i[mat, MAT_TEXTURE]
         if EMITTERS and kind == DIFFUSE_LIGHT:
             e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
             r += tr * e[0]
             g += tg * e[1]
             b += tb * e[2]
             break
-        new_d = scatter(kind, S.mat_f[mat, 0], S.mat_f[mat, 1], d, n_front, front, key, bounce_dim(bounce, 0))
+        new_d = scatter(S.mat_i, S.mat_f, mat, d, n_front, front, key, bounce_dim(bounce, 0))
         if is_zero(new_d):
             break
         att = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)

@@ -6,9 +6,9 @@ import numpy as np
 from numba import njit
 
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..layout import MEDIUM
-from .geometry import surface
-from .traverse import intersect_brute_force, intersect_scene
+from ..shapes import MEDIUM, PRIM_KIND
+from ..shapes.dispatch import surface
+from .traverse import INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT, intersect_brute_force, intersect_scene
 from .vec import unit, xform_normal, xform_point, xform_vector
 
 
@@ -38,13 +38,13 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
         if prim < 0:
             continue
         t_out[k], prim_out[k], inst_out[k] = t, prim, inst
-        if S.prims_i[prim, 0] == MEDIUM:  # no surface
+        if S.prims_i[prim, PRIM_KIND] == MEDIUM:  # no surface
             continue
-        oo = xform_point(S.inst_f, inst, 12, o)
-        dd = xform_vector(S.inst_f, inst, 12, d)
-        po, no, u, v = surface(S.prims_i[prim, 0], S.prims_f, prim, oo, dd, t, time, True)
-        p = xform_point(S.inst_f, inst, 0, po)
-        nw = unit(xform_normal(S.inst_f, inst, 12, no))
+        oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+        dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+        po, no, u, v = surface(S.prims_i[prim, PRIM_KIND], S.prims_f, prim, oo, dd, t, time, True)
+        p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
+        nw = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
         for q in range(3):
             p_out[k, q] = p[q]
             n_out[k, q] = nw[q]

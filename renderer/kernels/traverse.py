@@ -3,23 +3,51 @@
 The bottom-level trees are four wide (see bvh.WideBvh): a step tests a node's four child boxes
 at once and visits them nearest first. The top level, over a scene's few instances, is a
 binary tree visiting the child nearer along its split axis first. A constant medium is a
-primitive whose hit distance is drawn from its free-flight distribution, with a random number
-keyed by (bounce, instance, primitive) so the answer does not depend on the order nodes are
-visited in; media are tested after the surfaces of a tree.
+primitive whose hit distance is drawn from its free-flight distribution (media.py); media are
+tested after the surfaces of a tree.
 """
 
 import math
 
 from numba import njit, uint64
 
-from ..layout import MEDIUM, MOVING_SPHERE, SPHERE
-from .features import INSTANCES, MEDIA
-from .geometry import hit_planar, hit_primitive, sphere_center
-from .rng import DIM_MEDIUM, mix64, uniform
+from ..columns import Column, Layout
+from ..kernel_flags import INSTANCES, MEDIA
+from ..media import medium_hit
+from ..shapes import MEDIUM, PRIM_KIND
+from ..shapes.dispatch import hit_primitive
 from .simd import slab4
-from .vec import dot, length, sub, xform_point, xform_vector
+from .vec import dot, xform_point, xform_vector
 
 INF = math.inf
+
+# The top level: instances, and the binary tree over them (its leaves index instances directly).
+INSTANCE_I = Layout("inst_i", "int32", [
+    Column("root", 1, "root node of the instance's bottom-level tree in nodes_f and nodes_i"),
+    Column("untransformed", 1, "1 if the instance's transform is the identity (rays need no transforming)"),
+    Column("serial", 1, "the instance's number, independent of row order: keys the random numbers of its media"),
+])
+INSTANCE_F = Layout("inst_f", "float64", [
+    Column("world_from_object", 12, "3x4 row-major affine map"),
+    Column("object_from_world", 12, "its inverse"),
+])
+TLAS_F = Layout("tlas_f", "float64", [Column("lo", 3, "box corner"), Column("hi", 3, "box corner")])
+TLAS_I = Layout("tlas_i", "int32", [
+    Column("next", 1, "interior: the second child (the first is the next row); leaf: the first instance"),
+    Column("count", 1, "leaf: how many instances; 0 for an interior node"),
+    Column("axis", 1, "interior: the split axis, whose sign of the ray's direction picks the near child"),
+])
+# Bottom-level trees are four wide (bvh.WideBvh): a node's four child boxes are nodes_f's row,
+# laid out by coordinate for one vector test (simd.slab4); nodes_i says where each child leads.
+NODE_I = Layout("nodes_i", "int64", [
+    Column("child", 4, "per child: its node, or its first primitive row if its count is above 0"),
+    Column("count", 4, "per child: primitives in the leaf, 0 for an interior node, -1 for an empty slot"),
+])
+NODE_CHILD, NODE_COUNT = NODE_I.offsets("child", "count")
+INST_ROOT, INST_UNTRANSFORMED, INST_SERIAL = INSTANCE_I.offsets("root", "untransformed", "serial")
+INST_WORLD_FROM_OBJECT, INST_OBJECT_FROM_WORLD = INSTANCE_F.offsets("world_from_object", "object_from_world")
+TLAS_LO, TLAS_HI = TLAS_F.offsets("lo", "hi")
+TLAS_NEXT, TLAS_COUNT, TLAS_AXIS = TLAS_I.offsets("next", "count", "axis")
 # Stands in for 1/0 in slab tests: large enough to act as infinity, finite so 0 * it is 0, not NaN.
 BIG = 1e300
 
@@ -36,14 +64,14 @@ def inverse_direction(d):
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def slab(box, k, o, inv, tmin, tmax):
     """Entry distance of the ray into box k (lo 0:3, hi 3:6) if it meets [tmin, tmax], else inf."""
-    t0 = (box[k, 0] - o[0]) * inv[0]
-    t1 = (box[k, 3] - o[0]) * inv[0]
+    t0 = (box[k, TLAS_LO] - o[0]) * inv[0]
+    t1 = (box[k, TLAS_HI] - o[0]) * inv[0]
     near, far = min(t0, t1), max(t0, t1)
-    t0 = (box[k, 1] - o[1]) * inv[1]
-    t1 = (box[k, 4] - o[1]) * inv[1]
+    t0 = (box[k, TLAS_LO + 1] - o[1]) * inv[1]
+    t1 = (box[k, TLAS_HI + 1] - o[1]) * inv[1]
     near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
-    t0 = (box[k, 2] - o[2]) * inv[2]
-    t1 = (box[k, 5] - o[2]) * inv[2]
+    t0 = (box[k, TLAS_LO + 2] - o[2]) * inv[2]
+    t1 = (box[k, TLAS_HI + 2] - o[2]) * inv[2]
     near, far = max(near, min(t0, t1)), min(far, max(t0, t1))
     # Widen the far end by a few ulps so rounding never drops a box the ray grazes (pbrt's gamma).
     far *= 1.0 + 4e-16
@@ -58,8 +86,8 @@ def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
     The nearer child (by the ray's direction along the split axis) is visited first; the other
     is pushed with its entry distance when the ray meets it too.
     """
-    near, far = node + 1, info[node, 0]
-    axis = info[node, 2]
+    near, far = node + 1, info[node, TLAS_NEXT]
+    axis = info[node, TLAS_AXIS]
     if neg0 if axis == 0 else (neg1 if axis == 1 else neg2):
         near, far = far, near
     t_near = slab(box, near, o, inv, tmin, best_t)
@@ -83,69 +111,6 @@ def pop(stack, sp, best_t):
         if stack[sp, 1] <= best_t:
             return int(stack[sp, 0]), sp
     return -1, sp
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def medium_span(bnd_i, bnd_f, start, count, o, d, time):
-    """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
-    enter, leave = INF, -INF
-    for b in range(start, start + count):
-        kind = bnd_i[b]
-        if kind == SPHERE or kind == MOVING_SPHERE:
-            c = sphere_center(kind, bnd_f, b, time)
-            r = bnd_f[b, 3]
-            f = sub(o, c)
-            a = dot(d, d)
-            half_b = dot(f, d)
-            s = half_b / a
-            lx, ly, lz = f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]
-            disc = a * (r * r - (lx * lx + ly * ly + lz * lz))
-            if disc <= 0.0:
-                continue
-            root = math.sqrt(disc)
-            q = -half_b - math.copysign(root, half_b)
-            t0, t1 = q / a, (dot(f, f) - r * r) / q if q != 0.0 else q / a
-            enter = min(enter, min(t0, t1))
-            leave = max(leave, max(t0, t1))
-        else:
-            t = hit_planar(kind, bnd_f, b, o, d, -INF, INF)
-            if t < INF:
-                enter = min(enter, t)
-                leave = max(leave, t)
-    return enter, leave
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
-    # `inst` is the instance's serial number.
-    """Distance at which the ray scatters in medium `prim`, or inf if it passes through."""
-    # Keyed by serial numbers, not table rows: the BVH reorders rows, and must not change the image.
-    medium = uint64(prims_f[prim, 3])
-    dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
-    u = uniform(key, dim)
-    speed = length(d)
-    # The free-flight distance -ln(1 - u) / density is at least u / density. When that already
-    # reaches past where the ray can be inside the medium, it passes through, and neither the
-    # boundary nor the logarithm is needed. The answer is the one they would give. Two bounds:
-    # the ray's whole extent (tmin, tmax), known before the boundary is intersected (the
-    # traversal tests media last, so tmax is then the nearest surface), and the part inside.
-    reach = u * -prims_f[prim, 0]
-    if reach > (tmax - max(tmin, 0.0)) * speed:
-        return INF
-    start, count = int(prims_f[prim, 1]), int(prims_f[prim, 2])
-    enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
-    t0, t1 = max(enter, tmin), min(leave, tmax)
-    if not t0 < t1:
-        return INF
-    t0 = max(t0, 0.0)
-    inside = (t1 - t0) * speed
-    if reach > inside:
-        return INF
-    # -ln(1 - u) / density with u in [0, 1): finite, never log(0).
-    distance = prims_f[prim, 0] * math.log1p(-u)
-    if distance > inside:
-        return INF
-    return t0 + distance / speed
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -200,16 +165,16 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
             near, near_t = 3, t3
         base = sp
         if t0 < INF and near != 0:
-            sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[at(node), 0], nodes_i[at(node), 4])
+            sp = push_sorted(stack_t, stack_i, base, sp, t0, nodes_i[at(node), NODE_CHILD + 0], nodes_i[at(node), NODE_COUNT + 0])
         if t1 < INF and near != 1:
-            sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[at(node), 1], nodes_i[at(node), 5])
+            sp = push_sorted(stack_t, stack_i, base, sp, t1, nodes_i[at(node), NODE_CHILD + 1], nodes_i[at(node), NODE_COUNT + 1])
         if t2 < INF and near != 2:
-            sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[at(node), 2], nodes_i[at(node), 6])
+            sp = push_sorted(stack_t, stack_i, base, sp, t2, nodes_i[at(node), NODE_CHILD + 2], nodes_i[at(node), NODE_COUNT + 2])
         if t3 < INF and near != 3:
-            sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[at(node), 3], nodes_i[at(node), 7])
+            sp = push_sorted(stack_t, stack_i, base, sp, t3, nodes_i[at(node), NODE_CHILD + 3], nodes_i[at(node), NODE_COUNT + 3])
         code, count = -1, -1
         if near >= 0:
-            code, count = nodes_i[at(node), at(near)], nodes_i[at(node), at(4 + near)]
+            code, count = nodes_i[at(node), at(NODE_CHILD + near)], nodes_i[at(node), at(NODE_COUNT + near)]
         node = -1
         while True:
             if count == 0:
@@ -217,7 +182,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                 break
             if count > 0:
                 for prim in range(code, code + count):
-                    kind = prims_i[at(prim), 0]
+                    kind = prims_i[at(prim), PRIM_KIND]
                     if MEDIA and kind == MEDIUM:
                         if n_deferred < deferred.shape[0]:
                             deferred[n_deferred] = prim
@@ -258,12 +223,12 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
     if n_inst == 0:
         return tmax, -1, -1
     if INSTANCES:
-        if n_inst > 1 or inst_i[0, 1] != 1:
+        if n_inst > 1 or inst_i[0, INST_UNTRANSFORMED] != 1:
             return intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
                                        o, d, tmin, tmax, time, key, bounce, stack, tstack)
     # No instancing at all: one tree in world space.
-    t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, 0],
-                             o, d, tmin, tmax, time, key, bounce, inst_i[0, 2], stack)
+    t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, INST_ROOT],
+                             o, d, tmin, tmax, time, key, bounce, inst_i[0, INST_SERIAL], stack)
     return t, prim, 0 if prim >= 0 else -1
 
 
@@ -278,17 +243,17 @@ def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_
     sp = 0
     node = 0
     while True:
-        count = tlas_i[node, 1]
+        count = tlas_i[node, TLAS_COUNT]
         if count > 0:
-            first = tlas_i[node, 0]
+            first = tlas_i[node, TLAS_NEXT]
             for inst in range(first, first + count):
-                if inst_i[inst, 1] == 1:
+                if inst_i[inst, INST_UNTRANSFORMED] == 1:
                     oo, dd = o, d
                 else:
-                    oo = xform_point(inst_f, inst, 12, o)
-                    dd = xform_vector(inst_f, inst, 12, d)
-                t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[inst, 0],
-                                         oo, dd, tmin, best_t, time, key, bounce, inst_i[inst, 2], stack)
+                    oo = xform_point(inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+                    dd = xform_vector(inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+                t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[inst, INST_ROOT],
+                                         oo, dd, tmin, best_t, time, key, bounce, inst_i[inst, INST_SERIAL], stack)
                 if prim >= 0 and t < best_t:
                     best_t, best_prim, best_inst = t, prim, inst
         else:
@@ -307,16 +272,16 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
     """The same answer as `intersect_scene` by testing every primitive of every instance (for tests)."""
     best_t, best_prim, best_inst = tmax, -1, -1
     for inst in range(S.inst_i.shape[0]):
-        oo = xform_point(S.inst_f, inst, 12, o)
-        dd = xform_vector(S.inst_f, inst, 12, d)
-        if S.inst_i[inst, 1] == 1:
+        oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+        dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+        if S.inst_i[inst, INST_UNTRANSFORMED] == 1:
             oo, dd = o, d
         inv, inv_a = inverse_direction(dd), 1.0 / dot(dd, dd)
-        lo_prim, hi_prim = tree_prim_range(S.nodes_i, S.inst_i[inst, 0])
+        lo_prim, hi_prim = tree_prim_range(S.nodes_i, S.inst_i[inst, INST_ROOT])
         for prim in range(lo_prim, hi_prim):
-            kind = S.prims_i[prim, 0]
+            kind = S.prims_i[prim, PRIM_KIND]
             if kind == MEDIUM:
-                t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, 2])
+                t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, INST_SERIAL])
             else:
                 t = hit_primitive(kind, S.prims_f, prim, oo, dd, inv, inv_a, tmin, best_t, time)
             if t < best_t:
@@ -332,7 +297,7 @@ def tree_prim_range(nodes_i, root):
     while len(stack) > 0:
         node = stack.pop()
         for c in range(4):
-            code, count = nodes_i[node, c], nodes_i[node, 4 + c]
+            code, count = nodes_i[node, NODE_CHILD + c], nodes_i[node, NODE_COUNT + c]
             if count > 0:
                 lo = min(lo, code)
                 hi = max(hi, code + count)

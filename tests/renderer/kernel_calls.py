@@ -10,11 +10,11 @@ import math
 import numpy as np
 from numba import njit
 
-from renderer.kernels.integrator import camera_ray
-from renderer.kernels.materials import random_unit_vector, scatter
+from renderer.camera import camera_ray
 from renderer.kernels.rng import bounce_dim, path_key
-from renderer.kernels.textures import texture_value
-from renderer.kernels.traverse import medium_hit
+from renderer.materials import MATERIAL_F, MATERIAL_I, random_unit_vector, scatter
+from renderer.media import medium_hit
+from renderer.textures import texture_value
 
 
 @njit(cache=True, error_model="numpy")
@@ -27,12 +27,18 @@ def unit_vectors(seed, n, bounce):
     return out
 
 
-@njit(cache=True, error_model="numpy")
 def scatter_many(kind, fuzz, ior, d, normal, front, seed, n, bounce):
     """n scattered directions of material `kind` for incoming d on a surface with unit normal `normal`."""
+    mat_i = np.array([MATERIAL_I.row(kind=kind)], np.int32)
+    mat_f = np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64)
+    return _scatter_many(mat_i, mat_f, np.asarray(d, np.float64), np.asarray(normal, np.float64), front, seed, n, bounce)
+
+
+@njit(cache=True, error_model="numpy")
+def _scatter_many(mat_i, mat_f, d, normal, front, seed, n, bounce):
     out = np.empty((n, 3))
     for k in range(n):
-        v = scatter(kind, fuzz, ior, (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
+        v = scatter(mat_i, mat_f, 0, (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
                     path_key(seed, k, 0), bounce_dim(bounce, 0))
         out[k, 0], out[k, 1], out[k, 2] = v[0], v[1], v[2]
     return out

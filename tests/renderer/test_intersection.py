@@ -101,7 +101,7 @@ BOX_TRANSFORMS = {
 @pytest.mark.parametrize("name", list(BOX_TRANSFORMS))
 def test_box_agrees_with_the_reference(name):
     from scenefmt import affine
-    from renderer import layout as L
+    from renderer import shapes as L
 
     steps, rows = BOX_TRANSFORMS[name]
     rng = np.random.default_rng(5)
@@ -130,7 +130,7 @@ def test_a_box_whose_material_reads_uv_or_that_bounds_a_medium_keeps_its_quads(t
     """An image texture needs each face's (u, v), and a medium's boundary is tested as planes:
     both stay six quads. A box with both a surface and a medium has a box row and six quads."""
     from PIL import Image
-    from renderer import layout as L
+    from renderer import shapes as L
 
     Image.fromarray(np.zeros((2, 2, 3), np.uint8), "RGB").save(tmp_path / "tex.png")
     textured = m.Lambertian(albedo=m.ImageTexture(file=str(tmp_path / "tex.png")))

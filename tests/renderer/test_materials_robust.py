@@ -19,11 +19,10 @@ import pytest
 
 from renderer.variants import GENERAL
 from renderer.compile import compile_scene
-from renderer.kernels.geometry import sphere_uv
-from renderer.kernels.materials import fresnel_dielectric, lambertian_direction, metal_direction, reflect
+from renderer.shapes.spheres import sphere_uv
+from renderer.materials import DIELECTRIC, LAMBERTIAN, fresnel_dielectric, lambertian_direction, metal_direction, reflect
 from renderer.kernels.probe import probe_rays
-from renderer.kernels.textures import perlin
-from renderer.layout import DIELECTRIC, LAMBERTIAN, TEX_SOLID
+from renderer.textures import TEX_SOLID, perlin
 from renderer.render import render
 from renderer.textures import perlin_tables
 from scenefmt import models as m

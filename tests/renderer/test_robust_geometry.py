@@ -22,7 +22,7 @@ from numba import njit
 
 from renderer.compile import compile_scene
 from renderer.config import SPAWN_OFFSET
-from renderer.kernels.geometry import spawn_origin
+from renderer.shapes.dispatch import spawn_origin
 from renderer.kernels.probe import probe_rays
 from scenefmt import affine
 from scenefmt import models as m

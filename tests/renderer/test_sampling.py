@@ -13,8 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from renderer.kernels.materials import fresnel_dielectric
-from renderer.layout import DIELECTRIC, ISOTROPIC, LAMBERTIAN
+from renderer.materials import DIELECTRIC, ISOTROPIC, LAMBERTIAN, fresnel_dielectric
 from tests.renderer.kernel_calls import camera_rays, medium_distances, scatter_many, unit_vectors
 from tests.renderer.stats import ALPHA, binomial_p_value, chi2_sf, chi2_test
 

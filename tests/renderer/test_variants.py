@@ -63,51 +63,45 @@ def scene_text(flag=None):
     return text + "shapes:\n" + GROUND + shape
 
 
+def graph_of(flag=None):
+    return loads(scene_text(flag).replace("EARTH", str(SCENES / "earthmap.png"))).graph
+
+
 def flat_of(flag=None):
-    text = scene_text(flag).replace("EARTH", str(SCENES / "earthmap.png"))
-    return compile_scene(loads(text).graph)
+    return compile_scene(graph_of(flag))
 
 
 NONE = KernelFeatures(**{name: False for name in FLAGS})
 
 
 def test_a_plain_scene_needs_no_optional_path():
-    assert features_of(flat_of()) == NONE
+    assert features_of(graph_of()) == NONE
 
 
 @pytest.mark.parametrize("flag", FLAGS)
 def test_each_element_switches_on_exactly_its_path(flag):
-    assert features_of(flat_of(flag)) == replace(NONE, **{flag: True})
+    assert features_of(graph_of(flag)) == replace(NONE, **{flag: True})
 
 
 def test_a_moving_sphere_needs_no_motion_when_the_shutter_is_closed_or_it_stands_still():
     closed = scene_text("motion").replace("image:", "shutter: {open: 0.5, close: 0.5}\nimage:")
     still = scene_text("motion").replace("center1: [0, 0.9, 0]", "center1: [0, 0.5, 0]")
-    assert not features_of(compile_scene(loads(closed).graph)).motion
-    assert not features_of(compile_scene(loads(still).graph)).motion
+    assert not features_of(loads(closed).graph).motion
+    assert not features_of(loads(still).graph).motion
 
 
 def test_transforms_baked_into_shapes_need_no_instances():
     baked = scene_text("instances").replace("transform: [{scale: [1, 2, 1]}]", "transform: [{translate: [1, 0, 0]}, {scale: 2}]")
-    assert not features_of(compile_scene(loads(baked).graph)).instances
+    assert not features_of(loads(baked).graph).instances
 
 
 @pytest.mark.parametrize("path", sorted(SCENES.glob("*.yaml")) + sorted(SCENES.glob("*.json")), ids=lambda p: p.stem)
-def test_kernel_features_agree_with_the_scene_effects(path):
-    """What `rt validate` reports from the description matches what the kernel needs."""
+def test_the_kernel_compiles_in_exactly_the_effects_validate_reports(path):
+    """One analysis: the kernel's paths are the effects `rt validate` prints, by key."""
     graph = load(path).graph
     summary = summarize(graph)
-    on = {e.name: e.on for e in summary.effects}
-    k = features_of(compile_scene(graph))
-    assert k.motion == on["motion blur"]
-    assert k.defocus == on["defocus"]
-    assert k.media == on["media"]
-    assert k.emitters == on["emitters"]
-    assert k.dielectrics == on["dielectrics"]
-    assert (k.checker, k.image, k.noise) == tuple(kind in summary.texture_kinds for kind in ("checker", "image", "noise"))
-    assert k.sky == (summary.background == "sky")
-    # Transforms baked into the shapes need no instancing in the kernel.
-    assert on["instances"] or not k.instances
+    assert {f.name: getattr(features_of(graph), f.name) for f in fields(KernelFeatures)} == {
+        e.key: e.on for e in summary.effects}
 
 
 def book_scene_lacking(flag):
@@ -115,9 +109,8 @@ def book_scene_lacking(flag):
     for path in sorted(SCENES.glob("*.yaml")):
         graph = load(path).graph
         small = with_width(graph, 12)
-        flat = compile_scene(small)
-        if not getattr(features_of(flat), flag):
-            return small, flat
+        if not getattr(features_of(small), flag):
+            return small, compile_scene(small)
     raise AssertionError(f"every book scene uses {flag}")
 
 
@@ -125,7 +118,7 @@ def book_scene_lacking(flag):
 def test_a_specialised_kernel_renders_the_general_kernels_image(flag):
     """Bit for bit: specialisation never changes an answer, whatever path it leaves out."""
     graph, flat = book_scene_lacking(flag)
-    special = render(graph, samples=2, max_depth=8, seed=5, flat=flat)
+    special = render(graph, samples=2, max_depth=8, seed=5, flat=flat, kernel="specialised")
     general = render(graph, samples=2, max_depth=8, seed=5, flat=flat, features=GENERAL)
     assert not getattr(special.stats.features, flag)
     assert general.stats.features == GENERAL
@@ -138,7 +131,7 @@ def test_a_path_left_out_is_really_gone():
     """The flags are not ignored: a kernel built without media, handed a scene with fog, renders
     something else than the general kernel (render() never does this: it refuses such a kernel)."""
     flat = flat_of("media")
-    no_media = replace(features_of(flat), media=False)
+    no_media = replace(features_of(graph_of("media")), media=False)
     images = {}
     for name, feats in (("without", no_media), ("with", GENERAL)):
         total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
@@ -164,3 +157,31 @@ def test_each_feature_set_has_a_cache_folder_of_its_own():
         assert any(folder.rglob("integrator.render_pass*")), f"no cached render kernel in {folder}"
     assert len(set(folders.values())) == 2
     assert is_compiled(NONE) and is_compiled(sky)
+
+
+def test_auto_starts_with_the_general_kernel_until_the_specialised_one_is_compiled(monkeypatch):
+    import renderer.variants as variants
+
+    needed = replace(NONE, sky=True)
+    monkeypatch.setattr(variants, "is_compiled", lambda features: features.is_general)
+    assert variants.first_kernel(needed) == GENERAL
+    monkeypatch.setattr(variants, "is_compiled", lambda features: True)
+    assert variants.first_kernel(needed) == needed
+    assert variants.first_kernel(needed, "general") == GENERAL
+    assert variants.first_kernel(needed, "specialised") == needed
+
+
+def test_a_long_render_switches_to_the_specialised_kernel_and_keeps_the_image(monkeypatch):
+    """The switch is mid-render, after the first pass: the image is the general kernel's, bit for bit."""
+    import renderer.render as render_module
+
+    graph = graph_of("sky")
+    monkeypatch.setattr(render_module, "first_kernel", lambda needed, choice: GENERAL)
+    monkeypatch.setattr(render_module, "worth_specialising", lambda seconds_left: True)
+    lines = []
+    switched = render(graph, samples=6, seed=3, notify=lines.append)
+    general = render(graph, samples=6, seed=3, features=GENERAL)
+    assert switched.stats.features == replace(NONE, sky=True)
+    assert any("switching" in line for line in lines)
+    assert np.array_equal(switched.film.total, general.film.total)
+    assert np.array_equal(switched.film.total_sq, general.film.total_sq)

@@ -1,4 +1,9 @@
-"""Scattering: lambertian, metal, dielectric and isotropic; diffuse lights only emit.
+"""Materials: their table, their flattening, and how each scatters a ray.
+
+Lambertian, metal, dielectric and isotropic scatter; diffuse lights only emit (the path
+tracer reads their texture as emission). Adding a material means a model in
+`scenefmt/materials.py`, a type code, its parameters in `MATERIAL_F`, a case in `flatten`
+and a case in `scatter`.
 
 The direction of each material is a function of its random inputs (`lambertian_direction`,
 `metal_direction`, `fresnel_dielectric`), so tests can check each on chosen inputs; `scatter`
@@ -9,10 +14,44 @@ import math
 
 from numba import njit
 
-from ..layout import DIELECTRIC, ISOTROPIC, LAMBERTIAN, METAL
-from .features import DIELECTRICS
-from .rng import uniform
-from .vec import add, dot, madd, scale, unit
+from .columns import Column, Layout
+from .kernel_flags import DIELECTRICS
+from .kernels.rng import uniform
+from .kernels.vec import add, dot, madd, scale, unit
+
+# Type codes.
+LAMBERTIAN = 0
+METAL = 1
+DIELECTRIC = 2
+DIFFUSE_LIGHT = 3
+ISOTROPIC = 4
+CODES = {"lambertian": LAMBERTIAN, "metal": METAL, "dielectric": DIELECTRIC, "diffuse_light": DIFFUSE_LIGHT,
+         "isotropic": ISOTROPIC}
+
+MATERIAL_I = Layout("mat_i", "int32", [
+    Column("kind", 1, "type code: LAMBERTIAN, METAL, DIELECTRIC, DIFFUSE_LIGHT or ISOTROPIC"),
+    Column("texture", 1, "texture row of the albedo (emission for a light); a solid white one for a dielectric"),
+    Column("reads_uv", 1, "1 if that texture reads surface (u, v): the kernels compute (u, v) only then"),
+])
+MATERIAL_F = Layout("mat_f", "float64", [
+    Column("fuzz", 1, "metal: radius of the sphere the mirror direction is moved within (0 = a perfect mirror)"),
+    Column("ior", 1, "dielectric: index of refraction, inside over outside"),
+])
+MAT_KIND, MAT_TEXTURE, MAT_READS_UV = MATERIAL_I.offsets("kind", "texture", "reads_uv")
+MAT_FUZZ, MAT_IOR = MATERIAL_F.offsets("fuzz", "ior")
+
+
+def flatten(model, texture: int) -> tuple[list, list]:
+    """The (MATERIAL_I, MATERIAL_F) rows of a material model whose texture is row `texture`
+    (`reads_uv` is filled in once every texture is known, see compile.py)."""
+    ints = MATERIAL_I.row(kind=CODES[model.type], texture=texture)
+    floats = MATERIAL_F.row(fuzz=getattr(model, "fuzz", 0.0), ior=getattr(model, "ior", 1.0))
+    return ints, floats
+
+
+def phase_function(texture: int) -> tuple[list, list]:
+    """The rows of the isotropic material that scatters inside a medium of albedo `texture`."""
+    return MATERIAL_I.row(kind=ISOTROPIC, texture=texture), MATERIAL_F.row(fuzz=0.0, ior=1.0)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -92,12 +131,15 @@ def fresnel_dielectric(cos_i, eta):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def scatter(kind, fuzz, ior, d, n_front, front_face, key, dim):
-    """Direction of the scattered ray, or (0, 0, 0) when the surface absorbs it.
+def scatter(mat_i, mat_f, mat, d, n_front, front_face, key, dim):
+    """Direction of the ray scattered by material row `mat`, or (0, 0, 0) when it absorbs.
 
     `n_front` is the unit normal on the side the ray came from; `dim` is the first of the
     random dimensions this bounce may use.
     """
+    kind = mat_i[mat, MAT_KIND]
+    fuzz = mat_f[mat, MAT_FUZZ]
+    ior = mat_f[mat, MAT_IOR]
     if kind == LAMBERTIAN:
         return lambertian_direction(n_front, random_unit_vector(key, dim))
     if kind == METAL:

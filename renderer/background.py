@@ -1,0 +1,40 @@
+"""The background: its table, its flattening, and the radiance of a ray that meets nothing."""
+
+from numba import njit
+
+from scenefmt.scene import SkyBackground
+
+from .columns import Column, Layout
+from .kernel_flags import SKY
+from .kernels.vec import unit
+
+BACKGROUND_SOLID = 0
+BACKGROUND_SKY = 1
+
+_KIND = Column("kind", 1, "BACKGROUND_SOLID or BACKGROUND_SKY")
+SOLID_BACKGROUND = Layout("background solid", "float64", [_KIND, Column("color", 3, "linear RGB")], 7)
+SKY_BACKGROUND = Layout("background sky", "float64", [
+    _KIND,
+    Column("bottom", 3, "linear RGB straight down"),
+    Column("top", 3, "linear RGB straight up; the books' blend between them by the direction's y"),
+])
+SOLID_BACKGROUND.shares(SKY_BACKGROUND, "kind")
+BG_KIND, BG_COLOR = SOLID_BACKGROUND.offsets("kind", "color")
+BG_BOTTOM, BG_TOP = SKY_BACKGROUND.offsets("bottom", "top")
+
+
+def flatten(graph) -> list[float]:
+    """The background row of a scene graph."""
+    bg = graph.background
+    if isinstance(bg, SkyBackground):
+        return SKY_BACKGROUND.row(kind=float(BACKGROUND_SKY), bottom=tuple(map(float, bg.bottom)), top=tuple(map(float, bg.top)))
+    return SOLID_BACKGROUND.row(kind=float(BACKGROUND_SOLID), color=tuple(map(float, bg.color)))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def background(bg, d):
+    lo, hi = BG_BOTTOM, BG_TOP
+    if SKY and bg[BG_KIND] == BACKGROUND_SKY:
+        a = 0.5 * (unit(d)[1] + 1.0)
+        return ((1.0 - a) * bg[lo] + a * bg[hi], (1.0 - a) * bg[lo + 1] + a * bg[hi + 1], (1.0 - a) * bg[lo + 2] + a * bg[hi + 2])
+    return (bg[BG_COLOR], bg[BG_COLOR + 1], bg[BG_COLOR + 2])

@@ -1,0 +1,78 @@
+"""Shapes by kind: which family's flattening makes a shape's rows, and which kernel a row's hit takes."""
+
+from numba import njit
+
+from scenefmt import affine
+
+from ..config import SPAWN_OFFSET
+from ..kernels.vec import dot, madd, max_abs
+from . import BOX, MOVING_SPHERE, SPHERE, boxes, planar, spheres
+from .boxes import box_surface, hit_box
+from .planar import hit_planar, planar_surface
+from .spheres import SPHERE_RADIUS, hit_sphere, sphere_center, sphere_surface
+
+
+def shape_rows(model, m, similarity, shutter: tuple[float, float], as_box: bool):
+    """The (kind, row, lo, hi) rows of a shape model baked through affine map m, or None when m
+    cannot be baked in (a sphere under a non-similarity: it needs an instance of its own).
+
+    `similarity` is (linear part, scale or None) of m; `as_box` allows a box to be one BOX row
+    (its material does not read (u, v), and it is a surface, not a medium's boundary).
+    """
+    if model.type in ("sphere", "moving_sphere"):
+        lin, s = similarity
+        return None if s is None else [spheres.flatten(model, m, lin, s, *shutter)]
+    if model.type == "box" and as_box:
+        row = boxes.flatten(model, m)
+        if row is not None:
+            return [row]
+    return planar.flatten(model, m)
+
+
+def similarity_of(m) -> tuple:
+    lin = affine.linear(m)
+    return lin, affine.similarity_scale(lin)
+
+
+# --- the kernels ------------------------------------------------------------------------------
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def hit_primitive(kind, data, i, o, d, inv, inv_a, tmin, tmax, time):
+    """Distance to primitive i of a surface kind along the ray, or inf; `inv` is the inverse
+    direction (see hit_box) and `inv_a` is 1 / (d . d)."""
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        return hit_sphere(sphere_center(kind, data, i, time), data[i, SPHERE_RADIUS], o, d, inv_a, tmin, tmax)
+    if kind == BOX:
+        return hit_box(data, i, o, d, inv, tmin, tmax)
+    return hit_planar(kind, data, i, o, d, tmin, tmax)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def surface(kind, data, i, o, d, t, time, want_uv):
+    """Hit point, unit outward normal and (u, v) of a hit at distance t.
+
+    (u, v) is (0, 0) unless `want_uv`: only image textures read it, and on a sphere it costs
+    an arc cosine and an arc tangent.
+    """
+    p = madd(o, d, t)
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        return sphere_surface(kind, data, i, p, time, want_uv)
+    if kind == BOX:
+        return box_surface(data, i, p, d)
+    n, u, v = planar_surface(kind, data, i, p)
+    return p, n, u, v
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def spawn_origin(p, o, n, d):
+    """Origin of a ray leaving hit point p (reached by a ray from o) in direction d.
+
+    The renderer casts every ray with t_min = 0, so self-intersection is avoided here instead:
+    p moves along the unit normal n, to the side d points to, by SPAWN_OFFSET times the
+    magnitude of the coordinates involved. The rounding error of a hit point is a few ulps of
+    that magnitude, so the margin is always far larger than the error and, being relative,
+    looks the same at every scale (see docs/robustness.md).
+    """
+    eps = SPAWN_OFFSET * (max_abs(p) + max_abs(o))
+    return madd(p, n, eps if dot(d, n) > 0.0 else -eps)

@@ -1,0 +1,126 @@
+"""Spheres and moving spheres: their rows, their flattening, and their intersection.
+
+A sphere is baked into world space under any similarity (a rotation, a uniform scale, a
+translation or a mirror); under any other transform it stays a unit-space sphere in a tree of
+its own, placed by an instance (compile.py). A moving sphere's centre is a linear function of
+time over the shutter interval.
+"""
+
+import math
+
+from numba import njit
+
+from scenefmt import affine
+
+from ..columns import Column, Layout
+from ..kernel_flags import MOTION
+from ..kernels.vec import dot, madd, row3, scale, sub
+from . import INF, MOVING_SPHERE, PRIM_WIDTH, SPHERE, first_inside
+
+_RADIUS = Column("radius", 1, "radius")
+SPHERE_F = Layout("prims_f sphere", "float64", [
+    Column("center", 3, "centre"),
+    _RADIUS,
+    Column("rotation", 9, "object_from_world rotation, row-major: the frame of the (u, v) coordinates"),
+], PRIM_WIDTH)
+MOVING_SPHERE_F = Layout("prims_f moving_sphere", "float64", [
+    Column("center", 3, "centre at time 0 (extrapolated from the shutter interval)"),
+    _RADIUS,
+    Column("velocity", 3, "centre's velocity per unit of time"),
+    Column("rotation", 9, "as for a sphere"),
+], PRIM_WIDTH)
+SPHERE_F.shares(MOVING_SPHERE_F, "center", "radius")
+SPHERE_CENTER, SPHERE_RADIUS, SPHERE_ROTATION = SPHERE_F.offsets("center", "radius", "rotation")
+MOVING_VELOCITY, MOVING_ROTATION = MOVING_SPHERE_F.offsets("velocity", "rotation")
+
+
+def flatten(model, m, lin, s, shutter_open: float, shutter_close: float):
+    """(kind, row, lo, hi) of a sphere or moving sphere model baked through affine map m, whose
+    linear part `lin` is s times a rotation; lo and hi bound it over the shutter interval."""
+    # The object_from_world rotation for the uv frame, (lin / s) transposed, row by row.
+    rot = [lin[j][i] / s for i in range(3) for j in range(3)]
+    r = model.radius * s
+    if model.type == "sphere":
+        c = affine.apply_point(m, model.center)
+        row = SPHERE_F.row(center=c, radius=r, rotation=rot)
+        return SPHERE, row, affine.sub(c, (r, r, r)), affine.add(c, (r, r, r))
+    c0, c1 = affine.apply_point(m, model.center0), affine.apply_point(m, model.center1)
+    span = shutter_close - shutter_open
+    vel = tuple((c1[k] - c0[k]) / span for k in range(3)) if span > 0 else (0.0, 0.0, 0.0)
+    row = MOVING_SPHERE_F.row(center=affine.sub(c0, affine.scale(vel, shutter_open)), radius=r, velocity=vel, rotation=rot)
+    if span == 0:
+        c1 = c0
+    lo = tuple(min(c0[k], c1[k]) - r for k in range(3))
+    hi = tuple(max(c0[k], c1[k]) + r for k in range(3))
+    return MOVING_SPHERE, row, lo, hi
+
+
+# --- the kernels ------------------------------------------------------------------------------
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sphere_center(kind, data, i, time):
+    c = row3(data, i, SPHERE_CENTER)
+    if MOTION and kind == MOVING_SPHERE:
+        c = madd(c, row3(data, i, MOVING_VELOCITY), time)
+    return c
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def hit_sphere(c, r, o, d, inv_a, tmin, tmax):
+    """Nearest root in (tmin, tmax) of |o + t d - c| = r, or inf; `inv_a` is 1 / (d . d).
+
+    The discriminant is formed from the distance between the centre and the ray's line (the
+    perpendicular part of o - c) rather than as b^2 - ac, which loses every digit when the
+    sphere is large or far away (Haines et al., Ray Tracing Gems, ch. 7). The caller divides
+    by d . d once per ray: two of the three divisions of a test become products.
+    """
+    f = sub(o, c)
+    a = dot(d, d)
+    b = dot(f, d)
+    # Perpendicular offset of the line from the centre, computed without cancellation.
+    s = b * inv_a
+    lx, ly, lz = f[0] - s * d[0], f[1] - s * d[1], f[2] - s * d[2]
+    perp2 = lx * lx + ly * ly + lz * lz
+    disc = a * (r * r - perp2)
+    if disc < 0.0:
+        return INF
+    cc = dot(f, f) - r * r
+    # q has the sign of -b so the two roots below never subtract nearly equal numbers.
+    q = -b - math.copysign(math.sqrt(disc), b) if b != 0.0 else math.sqrt(disc)
+    if q == 0.0:
+        return INF
+    t0 = cc / q
+    t1 = q * inv_a
+    return first_inside(min(t0, t1), max(t0, t1), tmin, tmax)
+
+
+@njit(_nrt=False, cache=True, error_model="numpy")
+def sphere_uv(n_obj):
+    """(u, v) of a unit outward normal: u around +y starting at -x, v from the bottom pole."""
+    y = min(1.0, max(-1.0, -n_obj[1]))
+    theta = math.acos(y)
+    phi = math.atan2(-n_obj[2], n_obj[0]) + math.pi
+    return phi / (2.0 * math.pi), theta / math.pi
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sphere_surface(kind, data, i, p, time, want_uv):
+    """Hit point (moved onto the sphere), unit outward normal and (u, v) of a hit near p."""
+    c = sphere_center(kind, data, i, time)
+    r = data[i, SPHERE_RADIUS]
+    rel = sub(p, c)
+    dist = math.sqrt(dot(rel, rel))
+    n = scale(rel, 1.0 / dist) if dist > 0.0 else (0.0, 1.0, 0.0)
+    # Re-project the point onto the sphere: removes the error of o + t d.
+    p = madd(c, n, r)
+    if not want_uv:
+        return p, n, 0.0, 0.0
+    k = SPHERE_ROTATION if kind == SPHERE else MOVING_ROTATION
+    n_obj = (
+        data[i, k] * n[0] + data[i, k + 1] * n[1] + data[i, k + 2] * n[2],
+        data[i, k + 3] * n[0] + data[i, k + 4] * n[1] + data[i, k + 5] * n[2],
+        data[i, k + 6] * n[0] + data[i, k + 7] * n[1] + data[i, k + 8] * n[2],
+    )
+    u, v = sphere_uv(n_obj)
+    return p, n, u, v

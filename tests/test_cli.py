@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from rt.cli import app
@@ -87,6 +88,7 @@ def test_schema_prints_the_shipped_schema(tmp_path):
     assert json.loads(out.read_text()) == json.loads(result.stdout)
 
 
+@pytest.mark.slow
 def test_validate_runs_without_numba_as_a_real_process(tmp_path):
     path = write(tmp_path, "ok.yaml", VALID)
     code = (
@@ -99,6 +101,7 @@ def test_validate_runs_without_numba_as_a_real_process(tmp_path):
     assert out.stdout.split() == ["False", "False", "0"]
 
 
+@pytest.mark.slow
 def test_render_rejects_an_invalid_scene(tmp_path):
     path = write(tmp_path, "bad.yaml", INVALID)
     result = runner.invoke(app, ["render", str(path)])
@@ -124,6 +127,7 @@ def run_rt(*args, cwd, env_extra=None, **kw):
     return subprocess.run([sys.executable, "-m", "rt", *args], cwd=cwd, env=env, capture_output=True, text=True, **kw)
 
 
+@pytest.mark.slow
 def test_the_program_keeps_the_collector_off_and_freezes_what_lives_at_its_end():
     # The console script runs rt.__main__:run; its exit status is the command's, and the
     # objects alive at the end are frozen so the interpreter's shutdown passes skip them.
@@ -143,6 +147,7 @@ def test_the_program_keeps_the_collector_off_and_freezes_what_lives_at_its_end()
     assert out.stdout.split()[-3:] == ["0", "False", "True"], out.stdout + out.stderr
 
 
+@pytest.mark.slow
 def test_render_writes_the_default_output_name_and_applies_overrides(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     out = run_rt("render", "ball.yaml", "--spp", "2", "--width", "20", "--max-depth", "3", cwd=tmp_path)
@@ -156,6 +161,7 @@ def test_render_writes_the_default_output_name_and_applies_overrides(tmp_path):
     assert "Mrays/s" in out.stdout
 
 
+@pytest.mark.slow
 def test_render_is_identical_with_one_thread_or_two(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     images = []
@@ -176,6 +182,7 @@ def test_render_refuses_bad_output_names_before_rendering(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ball.yaml"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_saves_the_samples_rendered_so_far(tmp_path):
     import signal
     import time
@@ -196,6 +203,7 @@ def test_ctrl_c_saves_the_samples_rendered_so_far(tmp_path):
     assert "wrote ball.png" in out
 
 
+@pytest.mark.slow
 def test_render_reports_noise_writes_a_noise_map_and_resumes(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     first = run_rt("render", "ball.yaml", "--spp", "4", "--save-state", "s.npz", "--noise-map", "n.png", "--hdr", "a.pfm",
@@ -213,6 +221,7 @@ def test_render_reports_noise_writes_a_noise_map_and_resumes(tmp_path):
     assert other.returncode == 1 and "does not match" in other.stderr and "seed 5 (now 9)" in other.stderr
 
 
+@pytest.mark.slow
 def test_render_with_a_noise_target_says_why_it_stopped(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     out = run_rt("render", "ball.yaml", "--noise", "0.05", cwd=tmp_path)
@@ -232,6 +241,7 @@ def test_durations_are_parsed():
     assert _parse_duration("3x") is None
 
 
+@pytest.mark.slow
 def test_render_explain_names_the_element_behind_each_effect(tmp_path):
     write(tmp_path, "ball.yaml", SMALL)
     out = run_rt("render", "ball.yaml", "--spp", "1", "--explain", cwd=tmp_path)
@@ -240,6 +250,7 @@ def test_render_explain_names_the_element_behind_each_effect(tmp_path):
     assert "motion blur: off" in out.stderr and "dielectrics: on (shapes[1] is glass-like)" in out.stderr
 
 
+@pytest.mark.slow
 def test_an_unreadable_image_texture_is_a_scene_error_without_a_traceback(tmp_path):
     (tmp_path / "tex.png").write_text("not a png")
     write(tmp_path, "s.yaml", "materials: {e: {type: lambertian, albedo: {type: image, file: tex.png}}}\n"

@@ -12,6 +12,9 @@ import pytest
 
 from tests.renderer.references import REF_DIR, block_stats, render_small, scene_files
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 TEST_SPP = 64
 TEST_SEED = 2
 Z_LIMIT = 4.5

@@ -33,6 +33,9 @@ from scenefmt.graph import build_graph
 from tests.renderer.scenes import WHITE, cluster, pixel_rays, render_scene, scene
 from tests.renderer.stats import ALPHA, binomial_p_value
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 MAX_MEAN_PATH = 10.0
 
 

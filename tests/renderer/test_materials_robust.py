@@ -32,6 +32,9 @@ from tests.renderer.kernel_calls import scatter_many, texture_at, unit_vectors
 from tests.renderer.scenes import WHITE, pixel_rays, render_scene, scene
 from tests.renderer.stats import ALPHA, binomial_p_value, block_z, pixel_mean_and_se, z_limit
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 BLACK = (0.0, 0.0, 0.0)
 
 

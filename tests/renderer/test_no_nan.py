@@ -23,6 +23,9 @@ from renderer.render import render
 from scenefmt import models as m
 from scenefmt.graph import build_graph
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 SCENES = 128
 
 

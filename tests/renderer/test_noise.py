@@ -11,6 +11,9 @@ from renderer.render import render
 from renderer.state import RenderKey, load_state, save_state
 from scenefmt.validation import load, loads
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 

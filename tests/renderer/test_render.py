@@ -11,6 +11,9 @@ from renderer.film import Film, read_pfm, to_srgb8, write_image
 from renderer.render import render
 from scenefmt.validation import loads
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 # A little of everything: spheres, a moving sphere, quads, a box with fog, an instanced group,
 # textures, glass and a light.
 MIXED = """

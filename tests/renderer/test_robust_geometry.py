@@ -29,6 +29,9 @@ from scenefmt import models as m
 from scenefmt.graph import build_graph
 from tests import naive
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 MAT = m.Lambertian(albedo=(0.5, 0.5, 0.5))
 EPS = np.finfo(float).eps
 

@@ -17,6 +17,9 @@ from renderer.materials import DIELECTRIC, ISOTROPIC, LAMBERTIAN, fresnel_dielec
 from tests.renderer.kernel_calls import camera_rays, medium_distances, scatter_many, unit_vectors
 from tests.renderer.stats import ALPHA, binomial_p_value, chi2_sf, chi2_test
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 N = 200_000
 SEED = 20240607
 

@@ -24,6 +24,9 @@ from scenefmt import models as m
 from scenefmt.graph import build_graph
 from tests.renderer.stats import block_z, z_limit
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 SAMPLES = 1024
 
 

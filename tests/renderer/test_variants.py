@@ -13,6 +13,9 @@ from renderer.variants import GENERAL, KernelFeatures, _variant_cache_dir, featu
 from scenefmt.effects import summarize
 from scenefmt.validation import load, loads
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 FLAGS = [f.name for f in fields(KernelFeatures)]
 

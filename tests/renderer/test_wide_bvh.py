@@ -12,6 +12,9 @@ from renderer.config import BVH_STACK, BVH_WIDE_STACK
 from renderer.kernels.simd import slab4
 from renderer.kernels.traverse import inverse_direction, slab
 
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 
 def random_boxes(rng, n, spread=50.0):
     lo = rng.uniform(-spread, spread, (n, 3))

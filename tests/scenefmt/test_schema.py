@@ -83,6 +83,7 @@ def test_json_schema_rejects_what_the_models_reject(data, validator):
     assert list(validator.iter_errors(data))
 
 
+@pytest.mark.slow
 def test_wheel_contains_the_schema(tmp_path):
     # A non-editable install ships what the wheel holds; build one without network access.
     # Build from a clean copy: a leftover *.egg-info in the checkout would add files the package

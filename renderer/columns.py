@@ -101,3 +101,22 @@ def describe_all(layouts: Iterable[Layout]) -> str:
     for layout in layouts:
         lines += layout.describe()
     return "\n".join(lines)
+
+
+def declared_layouts() -> list[Layout]:
+    """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
+    from . import background, camera, materials, media, textures
+    from .kernels import traverse
+    from .shapes import PRIMITIVE_I, boxes, planar, spheres
+
+    return [
+        PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F,
+        materials.MATERIAL_I, materials.MATERIAL_F,
+        textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
+        traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,
+        camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND,
+    ]
+
+
+if __name__ == "__main__":
+    print(describe_all(declared_layouts()))

@@ -15,6 +15,7 @@ from typing import Optional, Union
 from . import affine
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
+from .files import FileProblem, describe_os_error, open_regular_file, path_problem
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
@@ -125,9 +126,11 @@ def _image_problem(path: Path) -> Optional[str]:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as img:
+        with open_regular_file(path) as fh, Image.open(fh) as img:
             width, height = img.size
-    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+    except FileProblem as exc:
+        return str(exc)
+    except (OSError, UnidentifiedImageError, Image.DecompressionBombError, ValueError) as exc:
         return f"is not a readable image ({exc})"
     if width * height > MAX_TEXTURE_PIXELS:
         return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
@@ -222,8 +225,18 @@ class _Resolver:
     def image_file(self, file: str, path: tuple) -> Optional[Path]:
         if self.doc is None:
             return Path(file)
-        resolved = (self.doc.base_dir / file).resolve()
-        if not resolved.is_file():
+        problem = path_problem(file)
+        if problem:
+            self.error(path, f"image file {file!r}: {problem}")
+            return None
+        try:
+            resolved = (self.doc.base_dir / file).resolve()
+            exists = resolved.exists()
+        except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
+            reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
+            self.error(path, f"image file {file!r}: {reason}")
+            return None
+        if not exists:
             self.error(path, f"image file '{file}' not found (looked for {resolved})")
             return None
         problem = _image_problem(resolved)

@@ -6,10 +6,11 @@ import math
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import AfterValidator, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import (
     field_error,
+    moderate,
     MAX_DEPTH,
     MAX_IMAGE_SIDE,
     MAX_SAMPLES,
@@ -50,14 +51,12 @@ class Camera(StrictModel):
     defocus_angle: Number = Field(
         0.0, ge=0, lt=180, description="Cone angle of rays through a pixel, in degrees; 0 is a pinhole (no defocus blur)."
     )
-    aperture: Optional[Number] = Field(
+    aperture: Optional[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0), AfterValidator(moderate)]] = Field(
         None,
-        ge=0,
         description="Lens diameter, as in the first book; an alternative to `defocus_angle` (give one, not both).",
     )
-    focus_distance: Optional[Number] = Field(
+    focus_distance: Optional[Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0), AfterValidator(moderate)]] = Field(
         None,
-        gt=0,
         description="Distance from `look_from` to the plane in perfect focus; by default the distance to `look_at`.",
     )
 

@@ -117,12 +117,14 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     from renderer.compile import scene_tables, with_width
     from renderer.flat import Frame
+    from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load
 
     try:
         loaded = load(opts.scene)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
+        check_memory(graph, loaded.document)  # issue 18: --width changes the film's size
         tables = scene_tables(graph)
     except SceneError as exc:
         for diag in exc.diagnostics:

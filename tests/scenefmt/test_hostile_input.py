@@ -108,7 +108,7 @@ def test_an_integer_too_long_to_convert_is_an_error_at_its_position():
 @pytest.mark.parametrize(
     "text, path, words",
     [
-        ("image: {width: 100, aspect_ratio: 1e-310}", ("image", "aspect_ratio"), "magnitude between 1e-50 and 1e+50"),
+        ("image: {width: 100, aspect_ratio: 1e-310}", ("image", "aspect_ratio"), "between 1e-50 and 1e+50"),
         (
             "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: {type: lambertian},\n"
             "  transform: [{matrix: [[1e300, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]}]}]",
@@ -155,3 +155,148 @@ def test_control_characters_in_keys_and_names_are_escaped_in_messages():
     assert "\\x1b[2J\\x1b]0;x\\x07" in shown
     right_to_left = str(Diagnostic("f\u202eyaml", 1, 1, ("a",), "b"))
     assert "\u202e" not in right_to_left and "\\u202e" in right_to_left
+
+
+# --- derived values, checked where they are derived -----------------------------------------------
+
+M = "materials: {m: {type: lambertian}}\n"
+
+
+@pytest.mark.parametrize(
+    "text, path, words",
+    [
+        (
+            M + "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m, transform: [{scale: 1e-40}, {scale: 1e-40}]}]",
+            ("shapes", 0, "transform", 1),
+            "shrinks some direction below 1e-60",
+        ),
+        (
+            M + "shapes: [{type: box, min: [0, 0, 0], max: [1, 1, 1], material: m,\n"
+            "  transform: [{scale: [1e-7, 1, 1]}, {rotate: {axis: z, degrees: 30}}, {scale: [1e-7, 1, 1]}]}]",
+            ("shapes", 0, "transform", 2),
+            "flattens the shape",
+        ),
+        (
+            M + "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m, transform: "
+            + "[" + ", ".join(["{scale: 1e30}"] * 3) + "]}]",
+            ("shapes", 0, "transform", 1),
+            "entries beyond 1e+60",
+        ),
+        (
+            M + "groups: {a: {shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m, transform: [{scale: 1e-40}]}]}}\n"
+            "shapes: [{type: instance, group: a, transform: [{scale: 1e-40}]}]",
+            ("shapes", 0, "transform"),
+            "below the 1e-60 allowed",
+        ),
+        (
+            M + "groups: {a: {shapes: [{type: box, min: [0, 0, 0], max: [1e40, 1, 1], material: m}]}}\n"
+            "shapes: [{type: instance, group: a, transform: [{scale: 1e40}]}]",
+            ("shapes", 0, "transform"),
+            "beyond the 1e+60 allowed",
+        ),
+        ("image: {width: 1000, aspect_ratio: 0.001}", ("image", "aspect_ratio"), "height width / aspect_ratio = 1e+06 pixels"),
+    ],
+)
+def test_derived_values_are_checked_at_the_value_that_causes_them(text, path, words):
+    diag = only(text)
+    assert diag.path == path and words in diag.message, str(diag)
+
+
+def test_products_that_underflowed_to_a_singular_map_are_refused_before_the_renderer():
+    # Each step on its own is fine; before, the product reached numpy's inverse and raised LinAlgError.
+    text = M + "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m, transform: [{scale: 1e-30}, {scale: 1e-30}, {scale: 1e-30}]}]"
+    assert "singular" in only(text).message
+
+
+# --- colours ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "text, path, words",
+    [
+        (
+            "shapes: [{type: sphere, center: [0, 0, -2], radius: 1, material: {type: diffuse_light, emit: [1e20, 1, 1]}}]",
+            ("shapes", 0, "material", "emit"),
+            "an emitted radiance must be at most 1e+12",
+        ),
+        (
+            "textures: {t: {type: checker, even: [0.5, 0.5, 0.5], odd: {type: solid, color: [2, 0, 0]}}}\n"
+            "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: {type: lambertian, albedo: t}}]",
+            ("textures", "t", "odd", "color"),
+            "a reflectance (albedo) must be at most 1 per channel, found 2 (it is used at shapes[0].material.albedo)",
+        ),
+        (
+            "media: {fog: {type: constant, density: 1, albedo: [3, 3, 3]}}\n"
+            "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, interior: fog}]",
+            ("media", "fog", "albedo"),
+            "reflectance",
+        ),
+        ("background: {type: sky, top: [1e13, 1, 1]}\n", ("background", "top"), "a background radiance must be at most 1e+12"),
+    ],
+)
+def test_colours_beyond_any_radiance_or_reflectance_are_refused(text, path, words):
+    diag = only(text)
+    assert diag.path == path and words in diag.message, str(diag)
+
+
+def test_every_book_scene_keeps_its_colours():
+    for scene in sorted((ROOT / "scenes").glob("*.[yj]*")):
+        load(scene)
+
+
+# --- size explosions -------------------------------------------------------------------------------
+
+
+def nested_instances(levels: int, fan_out: int) -> str:
+    text = M + "groups:\n  g0: {shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m}]}\n"
+    for i in range(1, levels + 1):
+        members = ", ".join(f"{{type: instance, group: g{i - 1}, transform: [{{translate: [{k}, 0, 0]}}]}}" for k in range(fan_out))
+        text += f"  g{i}: {{shapes: [{members}]}}\n"
+    return text + f"shapes: [{{type: instance, group: g{levels}}}]\n"
+
+
+def test_nested_instances_that_expand_to_1e8_shapes_are_refused_at_once():
+    start = time.perf_counter()
+    diags = errors_of(nested_instances(8, 10))
+    assert time.perf_counter() - start < 1.0
+    assert diags[0].path == ("shapes", 0)
+    assert "the instances expand to 100,000,000 placements (100,000,000 shapes), more than the 5,000,000 allowed" in diags[0].message
+
+
+def test_a_film_too_large_for_this_machine_is_refused_with_the_limit(monkeypatch):
+    from scenefmt import bounds
+
+    monkeypatch.setattr(bounds, "physical_memory", lambda: 16 << 30)
+    diag = only("image: {width: 32768, aspect_ratio: 1}\n")
+    assert diag.path == ("image", "width")
+    assert "needs about 144.0 GiB (film 144.0 GiB), more than the 12.0 GiB allowed on this machine (75% of its 16.0 GiB" in diag.message
+    # The same scene at a width this machine can hold is valid, and says what it needs.
+    assert loads("image: {width: 4096, aspect_ratio: 1}\n").graph.memory.film == 4096 * 4096 * bounds.FILM_BYTES_PER_PIXEL
+
+
+def png_header(width: int, height: int) -> bytes:
+    """The first bytes of a PNG (signature and IHDR), enough for Pillow to read its size."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    # A header, then the start of the pixel data: a few bytes that would decompress to 507 MB.
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 1000))
+
+
+def test_an_image_texture_whose_header_promises_169_megapixels_is_refused(tmp_path, monkeypatch):
+    from scenefmt import bounds
+
+    monkeypatch.setattr(bounds, "physical_memory", lambda: 4 << 30)
+    (tmp_path / "huge.png").write_bytes(png_header(13000, 13000))
+    scene = tmp_path / "s.yaml"
+    scene.write_text("textures: {t: {type: image, file: huge.png}}\n"
+                     "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: {type: lambertian, albedo: t}}]\n")
+    with pytest.raises(SceneError) as excinfo:
+        load(scene)
+    (diag,) = excinfo.value.diagnostics
+    assert diag.path == ("textures", "t", "file")
+    assert "needs about 5.5 GiB (film 1.4 MiB, textures 5.5 GiB), more than the 3.0 GiB allowed on this machine" in diag.message

@@ -22,7 +22,7 @@ def _moderate(x: float) -> float:
 num = st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False).map(_moderate)
 positive = st.floats(1e-3, 1e4, allow_nan=False, allow_infinity=False)
 vec = st.tuples(num, num, num)
-color = st.tuples(*[st.floats(0, 20, allow_nan=False).map(_moderate)] * 3)
+color = st.tuples(*[st.floats(0, 1, allow_nan=False).map(_moderate)] * 3)  # reflectances are at most 1 (scenefmt.bounds)
 names = st.from_regex(r"[A-Za-z_][A-Za-z0-9_.\-]{0,12}", fullmatch=True)
 
 

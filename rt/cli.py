@@ -106,7 +106,9 @@ def render(
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
     max_depth: Optional[int] = typer.Option(None, "--max-depth", min=1, max=10_000, help="Most bounces per path."),
-    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Seed of the random numbers."),
+    seed: Optional[int] = typer.Option(
+        None, "--seed", min=0, max=2**63 - 1, help="Seed of the random numbers (0 to 2^63 - 1, as in a scene file)."
+    ),
     threads: Optional[int] = typer.Option(None, "--threads", min=1, help="Worker threads (default: all cores)."),
     time_budget: Optional[str] = typer.Option(
         None, "--time", help="Render in passes until this much time is spent (30s, 2m, 1h); --spp is then the cap."

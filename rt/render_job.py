@@ -95,7 +95,9 @@ def say(message: str, err: bool = False) -> None:
 
 
 def fail(message: str) -> Stop:
-    say(message, err=True)
+    from scenefmt.diagnostics import escape_control  # issue 18: file names and keys come from files
+
+    say(escape_control(message), err=True)
     return Stop(1)
 
 

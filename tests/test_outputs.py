@@ -126,3 +126,19 @@ def test_with_save_state_the_state_is_written_before_the_images(tmp_path, monkey
         outputs.write_outputs(opts, film, key, fail)
     assert f"error: cannot write {tmp_path / 'out.png'}: I/O error; the samples are saved in {tmp_path / 'run.npz'}" in capsys.readouterr().err
     assert load_state(tmp_path / "run.npz", key).samples == 2
+
+
+def test_a_width_whose_film_this_machine_cannot_hold_is_refused_before_rendering(tmp_path, monkeypatch):
+    from scenefmt import bounds
+
+    monkeypatch.setattr(bounds, "physical_memory", lambda: 16 << 30)
+    result = runner.invoke(app, render_args(tmp_path, "--width", "32768"))
+    assert result.exit_code == 1, result.output
+    assert "image.width: rendering this scene needs about 144.0 GiB (film 144.0 GiB), more than the 12.0 GiB allowed" in result.output
+
+
+def test_error_lines_escape_control_characters(tmp_path, capsys):
+    from rt.render_job import fail
+
+    fail("error: \x1b[2Jname\x9b: bad")
+    assert capsys.readouterr().err == "error: \\x1b[2Jname\\x9b: bad\n"

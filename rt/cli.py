@@ -41,6 +41,12 @@ def _summary_lines(loaded) -> list[str]:
         f"  image: {image.width}x{image.pixel_height}, {image.samples_per_pixel} spp, max depth {image.max_depth}, "
         f"seed {image.seed}; background {summary.background}"
     )
+    if graph.memory is not None:
+        from scenefmt.bounds import gib, memory_limit
+
+        memory = graph.memory
+        expanded = f", {memory.placements:,} instance placements" if memory.placements > 1 else ""
+        lines.append(f"  memory: about {gib(memory.total)} ({memory.describe()}{expanded}); at most {gib(memory_limit())} here")
     lines.append("  effects:")
     lines += [f"    {effect}" for effect in summary.effects]
     return lines
@@ -80,6 +86,7 @@ def validate(
                 "errors": [],
                 "warnings": [d.to_json() for d in loaded.warnings],
                 "summary": summarize(loaded.graph).to_json(),
+                "memory_bytes": loaded.graph.memory.total if loaded.graph.memory is not None else None,
             }
         )
         if not as_json:

@@ -142,3 +142,11 @@ def test_error_lines_escape_control_characters(tmp_path, capsys):
 
     fail("error: \x1b[2Jname\x9b: bad")
     assert capsys.readouterr().err == "error: \\x1b[2Jname\\x9b: bad\n"
+
+
+def test_validate_reports_the_memory_a_render_needs(tmp_path):
+    scene = tmp_path / "s.yaml"
+    scene.write_text(SMALL.replace("width: 4", "width: 1000"))
+    result = runner.invoke(app, ["validate", str(scene)])
+    assert result.exit_code == 0, result.output
+    assert "  memory: about 137.3 MiB (film 137.3 MiB); at most " in result.stdout

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import math
 import os
+import secrets
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,9 +45,52 @@ def to_srgb8(linear: np.ndarray) -> np.ndarray:
 
 
 def _atomic_write(path: Path, write) -> None:
-    """Write through a temporary file in the same folder, then rename: never a truncated file."""
+    """Write through a temporary file in the same folder, then rename: never a truncated file.
+
+    Where the system allows it (Linux, O_TMPFILE), the temporary file has no name while it is
+    written, so a process killed in the middle (even by SIGKILL) leaves nothing behind; it is
+    given a short random name only once complete, for the instant before the rename. Elsewhere
+    a named temporary file is removed on any exception.
+    """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    folder = path.parent
+    try:
+        fd = os.open(folder, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o666)
+    except AttributeError:  # no O_TMPFILE on this system
+        return _atomic_write_named(path, write)
+    except OSError as exc:
+        if exc.errno in (errno.EOPNOTSUPP, errno.EISDIR, errno.EINVAL):  # not on this file system
+            return _atomic_write_named(path, write)
+        raise
+    with os.fdopen(fd, "wb") as fh:
+        write(fh)
+        fh.flush()
+        tmp = folder / f".rt-{secrets.token_hex(6)}.tmp"
+        try:
+            os.link(f"/proc/self/fd/{fh.fileno()}", tmp)
+        except OSError:  # no /proc: write it again, named
+            named = True
+        else:
+            named = False
+    if named:
+        return _atomic_write_named(path, write)
+    try:
+        os.replace(tmp, path)
+    except BaseException:
+        _remove(tmp)
+        raise
+
+
+def _remove(path) -> None:
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
+def _atomic_write_named(path: Path, write) -> None:
+    # A short name, so that a file name near the system's length limit still has a temporary one.
+    fd, tmp = tempfile.mkstemp(prefix=".rt-", suffix=".tmp", dir=path.parent or ".")
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
@@ -55,10 +100,7 @@ def _atomic_write(path: Path, write) -> None:
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        _remove(tmp)
         raise
 
 

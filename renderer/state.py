@@ -4,20 +4,41 @@ Random numbers are keyed by sample index, so a render continued from a saved sta
 very same image as one render with the total number of samples. A state records a
 fingerprint of the scene and the settings that shape the image; resuming with anything else
 is refused rather than mixing two different images.
+
+A state file comes from outside and its arrays go to the kernels, which index them without
+bounds checks, so it is read as hostile input (`load_state`): a regular file of bounded size,
+opened member by member as a zip archive; each member's declared size is checked against what
+the scene's image needs before a byte is decompressed, and decompression stops at that size;
+each array's header (shape, type, order) is checked before its data is read; the data must be
+finite, sums of squares non-negative, and the metadata exactly the fields and types written by
+`save_state`. Every problem is a `StateError` (a ValueError) with a sentence to show.
 """
 
 from __future__ import annotations
 
 import hashlib
+import io
 import json
+import math
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from scenefmt.bounds import MAX_RADIANCE
+
 from .film import Film, _atomic_write
 
 STATE_VERSION = 1
+# Samples per pixel a state may hold (the command line's cap, `--spp`).
+MAX_STATE_SAMPLES = 1_000_000
+_HEADER_BYTES = 4096  # an .npy header is at most this long here
+_META_BYTES = 4096
+
+
+class StateError(ValueError):
+    """A saved render state that cannot be used; the message names the file and says why."""
 
 
 @dataclass(frozen=True)
@@ -44,19 +65,116 @@ def save_state(path: Path, film: Film, key: RenderKey) -> None:
     _atomic_write(Path(path), write)
 
 
-def load_state(path: Path, key: RenderKey) -> Film:
-    """The film saved at `path`; ValueError if it belongs to another scene or other settings."""
-    with np.load(Path(path), allow_pickle=False) as data:
-        meta = json.loads(str(data["meta"]))
-        total, total_sq = data["total"], data["total_sq"]
-    if meta.get("version") != STATE_VERSION:
-        raise ValueError(f"{path}: a render state of an unknown version ({meta.get('version')})")
-    saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"])
-    if saved != key:
-        diffs = [f"{name} {getattr(saved, name)} (now {getattr(key, name)})" for name in key.__dict__
-                 if getattr(saved, name) != getattr(key, name)]
-        shown = ", ".join("the scene file changed" if d.startswith("scene ") else d for d in diffs)
-        raise ValueError(f"{path}: the saved render does not match this one: {shown}")
-    if total.shape != (key.height, key.width, 3):
-        raise ValueError(f"{path}: the saved image is {total.shape[1]}x{total.shape[0]}, not {key.width}x{key.height}")
-    return Film(total.astype(np.float64), total_sq.astype(np.float64), int(meta["samples"]))
+def _read_member(archive: zipfile.ZipFile, info: zipfile.ZipInfo, limit: int, where: str) -> bytes:
+    """A member's bytes, refusing one whose declared or actual size exceeds `limit`."""
+    if info.file_size > limit:
+        raise StateError(f"{where}: the member {info.filename!r} declares {info.file_size:,} bytes, more than the {limit:,} it can need")
+    try:
+        with archive.open(info) as fh:
+            data = fh.read(limit + 1)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, NotImplementedError, RuntimeError, ValueError) as exc:
+        raise StateError(f"{where}: the member {info.filename!r} cannot be read ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - zlib and lzma errors of corrupt data have many types
+        raise StateError(f"{where}: the member {info.filename!r} is corrupt ({type(exc).__name__}: {exc})") from None
+    if len(data) > limit:
+        raise StateError(f"{where}: the member {info.filename!r} expands past the {limit:,} bytes it can need")
+    return data
+
+
+def _parse_npy(data: bytes, name: str, where: str, shape: tuple, kind: str) -> np.ndarray:
+    """The array in `data` (an .npy file), which must have exactly `shape` and the kind of dtype."""
+    fh = io.BytesIO(data)
+    try:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            got_shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh, max_header_size=_HEADER_BYTES)
+        elif version == (2, 0):
+            got_shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh, max_header_size=_HEADER_BYTES)
+        else:
+            raise ValueError(f"unsupported .npy version {version}")
+    except (ValueError, OSError, EOFError, SyntaxError, TypeError) as exc:
+        raise StateError(f"{where}: {name} is not a readable array ({exc})") from None
+    if dtype.hasobject or dtype.kind != kind or (kind == "f" and dtype.itemsize != 8) or dtype.itemsize > 4 * _META_BYTES:
+        raise StateError(f"{where}: {name} has the type {dtype}, not {'float64' if kind == 'f' else 'a string'}")
+    if tuple(got_shape) != tuple(shape):
+        raise StateError(f"{where}: {name} has the shape {tuple(got_shape)}, not {tuple(shape)}")
+    count = math.prod(shape)
+    body = data[fh.tell():]
+    if len(body) != count * dtype.itemsize:
+        raise StateError(f"{where}: {name} holds {len(body):,} bytes of data, not the {count * dtype.itemsize:,} its shape needs")
+    array = np.frombuffer(body, dtype=dtype, count=count)
+    return array.reshape(shape, order="F" if fortran else "C")
+
+
+def _meta(raw: np.ndarray, where: str) -> dict:
+    try:
+        meta = json.loads(str(raw[()]))
+    except (ValueError, TypeError, RecursionError) as exc:
+        raise StateError(f"{where}: its metadata is not JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise StateError(f"{where}: its metadata is a {type(meta).__name__}, not a mapping")
+    fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "samples": int}
+    if set(meta) != set(fields):
+        missing, extra = sorted(set(fields) - set(meta)), sorted(set(meta) - set(fields))
+        raise StateError(f"{where}: its metadata has the wrong fields (missing {missing}, unknown {extra})")
+    for name, kind in fields.items():
+        if type(meta[name]) is not kind:  # noqa: E721 - bool is not an int here
+            raise StateError(f"{where}: its metadata's {name} is {meta[name]!r}, not {'an integer' if kind is int else 'a string'}")
+    return meta
+
+
+def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES) -> Film:
+    """The film saved at `path`; StateError (a ValueError) if it is not a state this render can continue."""
+    from scenefmt.files import FileProblem, read_regular_file
+
+    where = str(path)
+    pixels = key.width * key.height * 3
+    array_bytes = pixels * 8 + _HEADER_BYTES
+    # Stored members can be no larger than their data; compressed ones are smaller still.
+    limit = 2 * array_bytes + _META_BYTES * 8 + 64 * 1024
+    try:
+        raw = read_regular_file(path, limit)
+    except FileProblem as exc:
+        raise StateError(f"{where}: {exc}") from None
+    try:
+        archive = zipfile.ZipFile(io.BytesIO(raw))
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError) as exc:
+        raise StateError(f"{where}: not a saved render state (not a zip archive: {exc})") from None
+    with archive:
+        members = {info.filename: info for info in archive.infolist()}
+        expected = {"total.npy", "total_sq.npy", "meta.npy"}
+        if set(members) != expected or len(archive.infolist()) != len(expected):
+            raise StateError(f"{where}: not a saved render state (it holds {sorted(members)[:8]}, not {sorted(expected)})")
+        meta_raw = _parse_npy(_read_member(archive, members["meta.npy"], _META_BYTES * 4 + _HEADER_BYTES, where), "meta", where, (), "U")
+        meta = _meta(meta_raw, where)
+        if meta["version"] != STATE_VERSION:
+            raise StateError(f"{where}: a render state of an unknown version ({meta['version']})")
+        saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"])
+        if saved != key:
+            diffs = [f"{name} {getattr(saved, name)} (now {getattr(key, name)})" for name in key.__dict__
+                     if getattr(saved, name) != getattr(key, name)]
+            shown = ", ".join("the scene file changed" if d.startswith("scene ") else d for d in diffs)
+            raise StateError(f"{where}: the saved render does not match this one: {shown}")
+        samples = meta["samples"]
+        if not 1 <= samples <= max_samples:
+            raise StateError(f"{where}: it holds {samples} samples per pixel; a state holds 1 to {max_samples:,}")
+        shape = (key.height, key.width, 3)
+        arrays = {}
+        for name in ("total", "total_sq"):
+            data = _read_member(archive, members[f"{name}.npy"], array_bytes, where)
+            arrays[name] = _parse_npy(data, name, where, shape, "f")
+    # Copies: the arrays read lie over the file's bytes, read-only, and the kernels add into them.
+    total = np.array(arrays["total"], dtype=np.float64, order="C")
+    total_sq = np.array(arrays["total_sq"], dtype=np.float64, order="C")
+    for name, array in (("total", total), ("total_sq", total_sq)):
+        if not np.isfinite(array).all():
+            raise StateError(f"{where}: {name} holds values that are not finite (NaN or infinite)")
+    # A sample is at most the brightest radiance a scene may hold, times a margin for textures that
+    # reflect a little more than their colour (turbulence): sums beyond are not this renderer's.
+    most = samples * MAX_RADIANCE * 1e3
+    for name, array, top in (("total", total, most), ("total_sq", total_sq, most * MAX_RADIANCE * 1e3)):
+        if (array < 0).any():
+            raise StateError(f"{where}: {name} holds negative sums (radiance is never negative)")
+        if (array > top).any():
+            raise StateError(f"{where}: {name} holds sums above {top:g}, more than {samples} samples can add up to")
+    return Film(total, total_sq, samples)

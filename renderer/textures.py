@@ -61,21 +61,32 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 
 
 def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
-    """An (h, w, 3) float32 array of linear RGB, row 0 at the top of the image."""
+    """An (h, w, 3) float32 array of linear RGB, row 0 at the top of the image.
+
+    Memory: the decoded image, its 8-bit RGB form (3 bytes a pixel) and the float32 texels
+    (12 bytes a pixel), made by looking each 8-bit value up in a 256-entry table; no float64
+    copy of the image is ever made (scenefmt.bounds.TEXTURE_BYTES_PER_PIXEL counts this).
+    The file is opened as a regular file only, and its size is checked from its header before
+    anything is decoded.
+    """
     from PIL import Image, UnidentifiedImageError
 
+    from scenefmt.files import FileProblem, open_regular_file
     from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
 
     try:
-        with Image.open(path) as img:
+        with open_regular_file(path) as fh, Image.open(fh) as img:
             if img.width * img.height > MAX_TEXTURE_PIXELS:
                 raise ValueError(f"{path}: {img.width} x {img.height} is larger than the {MAX_TEXTURE_PIXELS:,} pixels allowed")
-            rgb = np.asarray(img.convert("RGB"), dtype=np.float64) / 255.0
+            rgb8 = np.asarray(img.convert("RGB"), dtype=np.uint8)
+    except FileProblem as exc:
+        raise ValueError(f"{path}: {exc}") from None
     except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
         raise ValueError(f"{path}: cannot read it as an image ({exc})") from None
+    table = np.arange(256, dtype=np.float64) / 255.0
     if colorspace == "srgb":
-        rgb = srgb_to_linear(rgb)
-    return np.ascontiguousarray(rgb, dtype=np.float32)
+        table = srgb_to_linear(table)
+    return np.ascontiguousarray(table.astype(np.float32)[rgb8])
 
 
 def perlin_tables(seed: int) -> tuple[np.ndarray, np.ndarray]:

@@ -41,6 +41,12 @@ def _summary_lines(loaded) -> list[str]:
         f"  image: {image.width}x{image.pixel_height}, {image.samples_per_pixel} spp, max depth {image.max_depth}, "
         f"seed {image.seed}; background {summary.background}"
     )
+    if graph.memory is not None:
+        from scenefmt.bounds import gib, memory_limit
+
+        memory = graph.memory
+        expanded = f", {memory.placements:,} instance placements" if memory.placements > 1 else ""
+        lines.append(f"  memory: about {gib(memory.total)} ({memory.describe()}{expanded}); at most {gib(memory_limit())} here")
     lines.append("  effects:")
     lines += [f"    {effect}" for effect in summary.effects]
     return lines
@@ -80,6 +86,7 @@ def validate(
                 "errors": [],
                 "warnings": [d.to_json() for d in loaded.warnings],
                 "summary": summarize(loaded.graph).to_json(),
+                "memory_bytes": loaded.graph.memory.total if loaded.graph.memory is not None else None,
             }
         )
         if not as_json:
@@ -106,7 +113,9 @@ def render(
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
     max_depth: Optional[int] = typer.Option(None, "--max-depth", min=1, max=10_000, help="Most bounces per path."),
-    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Seed of the random numbers."),
+    seed: Optional[int] = typer.Option(
+        None, "--seed", min=0, max=2**63 - 1, help="Seed of the random numbers (0 to 2^63 - 1, as in a scene file)."
+    ),
     threads: Optional[int] = typer.Option(None, "--threads", min=1, help="Worker threads (default: all cores)."),
     time_budget: Optional[str] = typer.Option(
         None, "--time", help="Render in passes until this much time is spent (30s, 2m, 1h); --spp is then the cap."

@@ -92,7 +92,9 @@ def say(message: str, err: bool = False) -> None:
 
 
 def fail(message: str) -> Stop:
-    say(message, err=True)
+    from scenefmt.diagnostics import escape_control  # file names and keys come from files
+
+    say(escape_control(message), err=True)
     return Stop(1)
 
 
@@ -112,16 +114,23 @@ def prepare(opts: RenderOptions) -> PreparedScene:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
+    from .outputs import output_problem  # every output is checked before rendering
+
+    problem = output_problem(opts)
+    if problem:
+        raise fail(problem)
 
     from renderer.compile import compile_scene, with_width
     from renderer.flat import Frame
     from renderer.variants import features_of
+    from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load
 
     try:
         loaded = load(opts.scene)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
+        check_memory(graph, loaded.document)  # --width changes the film's size
         flat = compile_scene(graph)
     except SceneError as exc:
         for diag in exc.diagnostics:
@@ -200,7 +209,6 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
 
     import numba
 
-    from renderer.film import estimate_noise, noise_map_image, write_image
     from renderer.render import render_flat
     from renderer.variants import first_kernel
 
@@ -267,17 +275,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
     if film.samples == 0:
         say("interrupted before the first pass finished: nothing to save", err=True)
         raise Stop(130)
-    image = film.mean()
-    write_image(opts.out, image)
-    if opts.hdr is not None:
-        write_image(opts.hdr, image)
-    estimate = estimate_noise(film)
-    if opts.noise_map is not None:
-        write_image(opts.noise_map, noise_map_image(estimate))
-    if opts.save_state is not None:
-        from renderer.state import save_state as write_state
+    from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
-        write_state(opts.save_state, film, render_key())
+    estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
     total = time.perf_counter() - started
     written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
     say(

@@ -5,13 +5,21 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
 from pydantic_core import PydanticCustomError
 
 # Upper bounds that keep a hostile or mistyped file from asking for absurd work.
 MAX_IMAGE_SIDE = 32768
 MAX_SAMPLES = 1_000_000
 MAX_DEPTH = 10_000
+
+# Every number of a scene is 0 or has a magnitude in [MIN_MAGNITUDE, MAX_MAGNITUDE]. Float64 reaches
+# 1e308 and 1e-308, but the renderer squares lengths, multiplies three of them (a determinant, a
+# cross product's length against a point) and chains up to 16 levels of instance transforms: with
+# 50 orders of magnitude on either side of 1, none of that overflows or underflows to 0. No
+# physical scene needs more than 1e50 between its largest and its smallest length.
+MAX_MAGNITUDE = 1e50
+MIN_MAGNITUDE = 1e-50
 
 
 class StrictModel(BaseModel):
@@ -47,13 +55,24 @@ def _require_triple(value: Any) -> Any:
     return value
 
 
-Number = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-"""A finite real number; integers are accepted, strings and booleans are not."""
+def moderate(value: float) -> float:
+    """`value` if it is 0 or of a magnitude in [MIN_MAGNITUDE, MAX_MAGNITUDE]; an error otherwise."""
+    if value != 0 and not MIN_MAGNITUDE <= abs(value) <= MAX_MAGNITUDE:
+        raise PydanticCustomError(
+            "magnitude",
+            "expected 0 or a number of magnitude between {low} and {high}",
+            {"low": f"{MIN_MAGNITUDE:g}", "high": f"{MAX_MAGNITUDE:g}"},
+        )
+    return value
+
+
+Number = Annotated[float, Field(strict=True, allow_inf_nan=False), AfterValidator(moderate)]
+"""A finite real number, 0 or of magnitude 1e-50 to 1e50; integers are accepted, strings and booleans are not."""
 
 Vec3 = Annotated[tuple[Number, Number, Number], BeforeValidator(_require_triple)]
 """A point or direction `[x, y, z]`."""
 
-Component = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+Component = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0), AfterValidator(moderate)]
 
 Color = Annotated[tuple[Component, Component, Component], BeforeValidator(_require_triple)]
 """A linear RGB colour `[r, g, b]`, each component >= 0; emitters may exceed 1."""

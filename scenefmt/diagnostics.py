@@ -3,10 +3,26 @@
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 KeyPath = tuple  # of str (mapping keys) and int (list indices)
+
+# C0 and C1 control characters, DEL, and the Unicode controls that reorder or hide text
+# (bidirectional overrides and isolates, zero-width marks, line and paragraph separators).
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u200b-\u200f\u2028-\u202e\u2066-\u2069\ufeff]")
+
+
+def escape_control(text: str) -> str:
+    """`text` with every control character written as an escape (`\\x1b`, `\\u202e`), so a
+    key, name or file name taken from a hostile file cannot drive the terminal it is printed on."""
+
+    def escaped(match: "re.Match[str]") -> str:
+        code = ord(match.group(0))
+        return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+    return _CONTROL.sub(escaped, text)
 
 
 def format_path(path: Sequence) -> str:
@@ -33,7 +49,7 @@ class Diagnostic:
 
     def __str__(self) -> str:
         where = f"{self.file}:{self.line}:{self.column}"
-        return f"{where}: {self.severity}: {format_path(self.path)}: {self.message}"
+        return escape_control(f"{where}: {self.severity}: {format_path(self.path)}: {self.message}")
 
     def to_json(self) -> dict:
         return {

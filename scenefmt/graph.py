@@ -8,13 +8,15 @@ references (with did-you-mean), cycles through groups or textures, missing image
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Union
 
-from . import affine
+from . import affine, bounds
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
+from .files import FileProblem, describe_os_error, open_regular_file, path_problem
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
@@ -115,6 +117,7 @@ class SceneGraph:
     groups: list[GroupNode]
     warnings: list[Diagnostic] = field(default_factory=list)
     source: Optional[str] = None
+    memory: Optional[bounds.MemoryEstimate] = None  # what rendering it needs (scenefmt.bounds)
 
 
 MAX_TEXTURE_PIXELS = 16384 * 16384
@@ -125,9 +128,15 @@ def _image_problem(path: Path) -> Optional[str]:
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as img:
-            width, height = img.size
-    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+        with warnings.catch_warnings(), open_regular_file(path) as fh:
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the memory estimate says more
+            with Image.open(fh) as img:
+                width, height = img.size
+    except FileProblem as exc:
+        return str(exc)
+    except UnidentifiedImageError:
+        return "is not a readable image (not a format Pillow can identify)"
+    except (OSError, Image.DecompressionBombError, ValueError) as exc:
         return f"is not a readable image ({exc})"
     if width * height > MAX_TEXTURE_PIXELS:
         return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
@@ -155,10 +164,22 @@ class _Resolver:
     # --- reporting -----------------------------------------------------------------------------
 
     def error(self, path: tuple, message: str) -> None:
+        self.errors.append(self.diagnostic(path, message))
+
+    def diagnostic(self, path: tuple, message: str) -> Diagnostic:
         if self.doc is not None:
-            self.errors.append(self.doc.diagnostic(path, message))
-        else:
-            self.errors.append(Diagnostic("<scene>", 0, 0, tuple(path), message))
+            return self.doc.diagnostic(path, message)
+        return Diagnostic("<scene>", 0, 0, tuple(path), message)
+
+    def check_colour(self, tex: TextureNode, path: tuple, most: float, what: str) -> None:
+        """Report a texture whose colour exceeds `most` where it is used as `what`."""
+        peak, where = bounds.texture_peak(tex)
+        if peak <= most:
+            return
+        if self.doc is not None and where + ("color",) in self.doc.values:
+            where = where + ("color",)
+        used = "" if where[: len(path)] == path else f" (it is used at {format_path(path)})"
+        self.error(where, f"{what} must be at most {most:g} per channel, found {peak:g}{used}")
 
     def warn(self, path: tuple, message: str) -> Diagnostic:
         if self.doc is not None:
@@ -222,8 +243,18 @@ class _Resolver:
     def image_file(self, file: str, path: tuple) -> Optional[Path]:
         if self.doc is None:
             return Path(file)
-        resolved = (self.doc.base_dir / file).resolve()
-        if not resolved.is_file():
+        problem = path_problem(file)
+        if problem:
+            self.error(path, f"image file {file!r}: {problem}")
+            return None
+        try:
+            resolved = (self.doc.base_dir / file).resolve()
+            exists = resolved.exists()
+        except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
+            reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
+            self.error(path, f"image file {file!r}: {reason}")
+            return None
+        if not exists:
             self.error(path, f"image file '{file}' not found (looked for {resolved})")
             return None
         problem = _image_problem(resolved)
@@ -254,6 +285,10 @@ class _Resolver:
                 tex = self.texture_slot(getattr(model, slot), path + (slot,))
                 if tex is not None:
                     node.textures[slot] = tex
+                    if slot == "albedo":
+                        self.check_colour(tex, path + (slot,), bounds.MAX_REFLECTANCE, "a reflectance (albedo)")
+                    else:
+                        self.check_colour(tex, path + (slot,), bounds.MAX_RADIANCE, "an emitted radiance")
         self.all_materials.append(node)
         return node
 
@@ -275,6 +310,7 @@ class _Resolver:
         albedo = self.texture_slot(model.albedo, path + ("albedo",))
         if albedo is None:
             return None
+        self.check_colour(albedo, path + ("albedo",), bounds.MAX_REFLECTANCE, "a reflectance (albedo)")
         node = MediumNode(model, name, path, albedo)
         self.all_media.append(node)
         return node
@@ -315,6 +351,7 @@ class _Resolver:
         return node
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
+        bounds.check_transform(model.transform, path, self.error)
         transform = affine.from_steps(model.transform)
         if isinstance(model, Instance):
             group = self.group_slot(model.group, path + ("group",))
@@ -351,6 +388,11 @@ class _Resolver:
         background = scene.background
         if isinstance(background, tuple):
             background = SolidBackground(color=background)
+        for key in ("color", "bottom", "top"):
+            colour = getattr(background, key, None)
+            if colour is not None and max(colour) > bounds.MAX_RADIANCE:
+                where = ("background",) if isinstance(scene.background, tuple) else ("background", key)
+                self.error(where, f"a background radiance must be at most {bounds.MAX_RADIANCE:g} per channel, found {max(colour):g}")
         return SceneGraph(
             camera=scene.camera,
             image=scene.image,
@@ -378,6 +420,10 @@ def build_graph(
     graph = resolver.resolve()
     if resolver.errors:
         raise SceneError(resolver.errors)
+    # What the scene implies once expanded (extents through instances, memory), on a sound graph.
+    problems, graph.memory = bounds.check_scene(graph, resolver.diagnostic)
+    if problems:
+        raise SceneError(problems)
     return graph
 
 

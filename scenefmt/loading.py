@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,10 +28,14 @@ from yaml.resolver import BaseResolver
 from yaml.scanner import Scanner
 
 from .diagnostics import Diagnostic, SceneError
+from .files import FileProblem, read_regular_file
 
 MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 64
 MAX_NODES = 5_000_000
+# No field takes an integer near this long; longer ones are refused before Python converts them
+# (which it refuses itself past 4300 digits, and which takes quadratic time before that).
+MAX_INTEGER_DIGITS = 400
 
 Position = tuple[int, int]  # 1-based line, 1-based column
 
@@ -132,7 +137,8 @@ def _prescan_yaml(text: str, file: str) -> None:
     depth = 0
     total = 0  # values so far, aliases counted at their expanded size
     sizes: dict[str, int] = {}
-    stack: list[list] = [[0, None]]  # [node count, anchor] per open collection
+    heights: dict[str, int] = {}  # levels of nesting inside each anchored node (a scalar: 0)
+    stack: list[list] = [[0, None, 0]]  # [node count, anchor, levels of nesting] per open collection
     loader = _ComposingLoader(text)
     try:
         while loader.check_event():
@@ -141,14 +147,16 @@ def _prescan_yaml(text: str, file: str) -> None:
                 depth += 1
                 if depth > MAX_DEPTH:
                     raise SceneError([Diagnostic(file, *_mark_position(event.start_mark), (), f"nesting deeper than {MAX_DEPTH} levels")])
-                stack.append([1, event.anchor])
+                stack.append([1, event.anchor, 1])
                 total += 1
             elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
                 depth -= 1
-                count, anchor = stack.pop()
+                count, anchor, height = stack.pop()
                 if anchor is not None:
                     sizes[anchor] = count
+                    heights[anchor] = height
                 stack[-1][0] += count
+                stack[-1][2] = max(stack[-1][2], 1 + height)
             elif isinstance(event, yaml.ScalarEvent):
                 if event.anchor is not None:
                     sizes[event.anchor] = 1
@@ -156,6 +164,20 @@ def _prescan_yaml(text: str, file: str) -> None:
                 total += 1
             elif isinstance(event, yaml.AliasEvent):
                 size = sizes.get(event.anchor, 1)
+                # An alias repeats its anchor's whole subtree here: nesting counts after expansion.
+                height = heights.get(event.anchor, 0)
+                if depth + height > MAX_DEPTH:
+                    raise SceneError(
+                        [
+                            Diagnostic(
+                                file,
+                                *_mark_position(event.start_mark),
+                                (),
+                                f"nesting deeper than {MAX_DEPTH} levels once the alias *{event.anchor} is expanded",
+                            )
+                        ]
+                    )
+                stack[-1][2] = max(stack[-1][2], 1 + height)
                 stack[-1][0] += size
                 total += size
             else:
@@ -231,6 +253,9 @@ class _YamlConverter:
         if tag == "tag:yaml.org,2002:bool":
             return text.lower() == "true"
         if tag == "tag:yaml.org,2002:int":
+            if len(text) > MAX_INTEGER_DIGITS:
+                self.problem(node, path, f"the integer has {len(text):,} digits, more than the {MAX_INTEGER_DIGITS} any value of a scene may have")
+                return text
             try:
                 if text.startswith("0o"):
                     return int(text[2:], 8)
@@ -349,6 +374,8 @@ class _JsonParser:
         if m and m.end() > i:
             s = m.group(0)
             if not (m.group(1) or m.group(2)):
+                if len(s) > MAX_INTEGER_DIGITS:
+                    raise self.fail(i, f"the integer has {len(s) - s.startswith('-'):,} digits, more than the {MAX_INTEGER_DIGITS} any value of a scene may have", syntax=False)
                 return int(s), m.end()
             number = float(s)
             if number in (float("inf"), float("-inf")):
@@ -449,23 +476,25 @@ def parse_text(text: str, file: str = "<string>", syntax: str = "yaml", base_dir
 
 
 def parse_file(path: str | Path) -> SourceDocument:
-    """Read and parse a scene file; raises `SceneError` naming the file on any problem."""
+    """Read and parse a scene file; raises `SceneError` naming the file on any problem.
+
+    Only a regular file is read (not a device, FIFO or directory, even through a symlink), and
+    never more than `MAX_FILE_BYTES` of it (see `scenefmt.files`).
+    """
+    name = os.fsdecode(path) if isinstance(path, bytes) else str(path)
+    try:
+        raw = read_regular_file(path, MAX_FILE_BYTES)
+    except FileProblem as exc:
+        raise SceneError([Diagnostic(name, 1, 1, (), str(exc))]) from None
     path = Path(path)
-    name = str(path)
-    try:
-        size = path.stat().st_size
-    except OSError as exc:
-        raise SceneError([Diagnostic(name, 1, 1, (), f"cannot read the file: {exc.strerror or exc}")]) from None
-    if size > MAX_FILE_BYTES:
-        raise SceneError([Diagnostic(name, 1, 1, (), f"the file is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB ({size:,} bytes)")])
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise SceneError([Diagnostic(name, 1, 1, (), f"cannot read the file: {exc.strerror or exc}")]) from None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
         raise SceneError([Diagnostic(name, line, col, (), "the file is not valid UTF-8 text")]) from None
-    return parse_text(text, name, syntax_of(path, text), base_dir=path.resolve().parent)
+    try:
+        base_dir = path.resolve().parent
+    except (OSError, RuntimeError):  # the file was read, so this is a race; keep its folder as named
+        base_dir = Path(os.path.abspath(path)).parent
+    return parse_text(text, name, syntax_of(path, text), base_dir=base_dir)

@@ -6,12 +6,15 @@ import math
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import AfterValidator, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import (
     field_error,
+    moderate,
     MAX_DEPTH,
     MAX_IMAGE_SIDE,
+    MAX_MAGNITUDE,
+    MIN_MAGNITUDE,
     MAX_SAMPLES,
     Color,
     Name,
@@ -50,14 +53,12 @@ class Camera(StrictModel):
     defocus_angle: Number = Field(
         0.0, ge=0, lt=180, description="Cone angle of rays through a pixel, in degrees; 0 is a pinhole (no defocus blur)."
     )
-    aperture: Optional[Number] = Field(
+    aperture: Optional[Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0), AfterValidator(moderate)]] = Field(
         None,
-        ge=0,
         description="Lens diameter, as in the first book; an alternative to `defocus_angle` (give one, not both).",
     )
-    focus_distance: Optional[Number] = Field(
+    focus_distance: Optional[Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0), AfterValidator(moderate)]] = Field(
         None,
-        gt=0,
         description="Distance from `look_from` to the plane in perfect focus; by default the distance to `look_at`.",
     )
 
@@ -125,14 +126,23 @@ class Image(StrictModel):
             isinstance(value, str) and not _RATIO.match(value)
         ):
             raise ValueError(f'expected a number or "W:H" such as "16:9", found {value!r}')
-        if not _parse_ratio(value) > 0:
+        ratio = _parse_ratio(value)
+        if not ratio > 0:
             raise ValueError(f"the aspect ratio must be > 0, found {value!r}")
+        if not MIN_MAGNITUDE <= ratio <= MAX_MAGNITUDE:
+            raise ValueError(f"the aspect ratio must be between {MIN_MAGNITUDE:g} and {MAX_MAGNITUDE:g}, found {value!r} = {ratio:g}")
         return value
 
     @model_validator(mode="after")
     def _one_of_height_or_ratio(self) -> "Image":
         if self.height is not None and self.aspect_ratio is not None:
             raise field_error("aspect_ratio", "give either height or aspect_ratio, not both")
+        if self.height is None and self.width / self.ratio >= MAX_IMAGE_SIDE + 1:
+            raise field_error(
+                "aspect_ratio",
+                f"the image height width / aspect_ratio = {self.width / self.ratio:.6g} pixels is more than the "
+                f"{MAX_IMAGE_SIDE} allowed",
+            )
         return self
 
     @property
@@ -144,14 +154,16 @@ class Image(StrictModel):
         """The height in effect: as given, or int(width / aspect_ratio), at least 1."""
         if self.height is not None:
             return self.height
-        return max(1, min(MAX_IMAGE_SIDE, int(self.width / self.ratio)))
+        height = self.width / self.ratio  # finite: the ratio is at least 1e-50
+        return max(1, min(MAX_IMAGE_SIDE, int(height))) if height == height else 1
 
 
 def _parse_ratio(value: Union[float, str]) -> float:
     if isinstance(value, str):
         m = _RATIO.match(value)
-        w, h = float(m.group(1)), float(m.group(2))
-        return w / h if h > 0 else 0.0
+        w, h = float(m.group(1)), float(m.group(2))  # digits only: never negative, perhaps inf or 0
+        ratio = w / h if h > 0 else 0.0
+        return ratio if ratio == ratio else 0.0  # inf / inf
     return float(value)
 
 

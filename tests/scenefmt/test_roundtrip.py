@@ -7,16 +7,22 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from scenefmt import models as m
-from scenefmt.base import vec_cross, vec_length
+from scenefmt.base import MIN_MAGNITUDE, vec_cross, vec_length
 from scenefmt.validation import load, loads
 from scenefmt.writing import dump, dumps
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
-num = st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False)
+
+def _moderate(x: float) -> float:
+    """A scene's numbers are 0 or of magnitude 1e-50 to 1e50 (scenefmt.base.MIN_MAGNITUDE)."""
+    return 0.0 if abs(x) < MIN_MAGNITUDE else x
+
+
+num = st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False).map(_moderate)
 positive = st.floats(1e-3, 1e4, allow_nan=False, allow_infinity=False)
 vec = st.tuples(num, num, num)
-color = st.tuples(*[st.floats(0, 20, allow_nan=False)] * 3)
+color = st.tuples(*[st.floats(0, 1, allow_nan=False).map(_moderate)] * 3)  # reflectances are at most 1 (scenefmt.bounds)
 names = st.from_regex(r"[A-Za-z_][A-Za-z0-9_.\-]{0,12}", fullmatch=True)
 
 
@@ -51,7 +57,7 @@ def materials(draw, textures_known):
     if kind == "lambertian":
         return m.Lambertian(albedo=draw(slots(textures_known)))
     if kind == "metal":
-        return m.Metal(albedo=draw(slots(textures_known)), fuzz=draw(st.floats(0, 1)))
+        return m.Metal(albedo=draw(slots(textures_known)), fuzz=draw(st.floats(0, 1).map(_moderate)))
     if kind == "dielectric":
         return m.Dielectric(ior=draw(positive))
     if kind == "diffuse_light":
@@ -66,7 +72,7 @@ def steps(draw):
         return m.TranslateStep(translate=draw(vec))
     if kind == "rotate":
         axis = draw(st.one_of(st.sampled_from(["x", "y", "z"]), nonzero_vec()))
-        return m.RotateStep(rotate=m.Rotation(axis=axis, degrees=draw(st.floats(-720, 720))))
+        return m.RotateStep(rotate=m.Rotation(axis=axis, degrees=draw(st.floats(-720, 720).map(_moderate))))
     if kind == "scale":
         factor = st.one_of(st.floats(0.01, 100), st.floats(-100, -0.01))
         return m.ScaleStep(scale=draw(st.one_of(factor, st.tuples(factor, factor, factor))))
@@ -129,7 +135,7 @@ def scenes(draw):
     background = draw(st.one_of(color, st.just(m.SkyBackground()), st.builds(m.SolidBackground, color=color)))
     return m.Scene(
         description=draw(st.text(st.characters(codec="ascii", exclude_categories=["Cc"]), max_size=40)),
-        camera=camera, image=image, shutter=m.Shutter(open=0, close=draw(st.floats(0, 5))),
+        camera=camera, image=image, shutter=m.Shutter(open=0, close=draw(st.floats(0, 5).map(_moderate))),
         background=background, textures=tex, materials=mat, media=med, groups=grp,
         shapes=draw(st.lists(shapes(list(mat), list(med), list(grp)), max_size=6)),
     )

@@ -1,0 +1,131 @@
+"""The files `rt render` writes: every one checked before rendering, none lost after it.
+
+`output_problem` runs before the scene is rendered: each output path (the image, --hdr,
+--noise-map, --save-state) must be a usable name, not a directory, in a folder that exists
+and where a file can be created (tried for real, with a temporary file that is removed at
+once: permissions, read-only file systems and quotas all answer the same way).
+
+`write_outputs` runs after: it writes the saved state first (the samples are what took the
+time), then the images. If a write still fails (the disk filled, the folder vanished), the
+render is not lost: the film is saved elsewhere (`rescue`), as a state to `--resume` when the
+scene's fingerprint is known and always as a linear PFM image, and the message says where.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Optional
+
+if TYPE_CHECKING:
+    from renderer.film import Film, NoiseEstimate
+    from renderer.state import RenderKey
+
+    from .render_job import RenderOptions
+
+
+def _outputs(opts: "RenderOptions") -> list[tuple[str, Path]]:
+    named = [("the image", opts.out), ("--hdr", opts.hdr), ("--noise-map", opts.noise_map), ("--save-state", opts.save_state)]
+    return [(what, path) for what, path in named if path is not None]
+
+
+def path_problem(path: Path) -> Optional[str]:
+    """Why no file can be written at `path`, or None. Creates nothing that outlives the call."""
+    from scenefmt.files import describe_os_error, kind_of
+    from scenefmt.files import path_problem as name_problem
+
+    problem = name_problem(path)
+    if problem:
+        return problem
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        if os.path.lexists(path):
+            kind = kind_of(os.stat(path).st_mode) if os.path.exists(path) else None
+            if kind is not None:
+                return f"it is {kind}, not a file that can be replaced"
+        if not folder.is_dir():
+            return f"the folder {folder} does not exist"
+        limit = os.pathconf(folder, "PC_NAME_MAX") if hasattr(os, "pathconf") else 255
+        if len(os.fsencode(path.name)) > limit:
+            return f"the file name is longer than the {limit} bytes the system allows"
+        fd, probe = tempfile.mkstemp(prefix=".rt-", suffix=".tmp", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        return f"cannot write in {folder}: {describe_os_error(exc)}"
+    return None
+
+
+def output_problem(opts: "RenderOptions") -> Optional[str]:
+    """The first output that cannot be written, as an error line; None if all can."""
+    from scenefmt.diagnostics import escape_control
+
+    seen: dict[str, str] = {}
+    for what, path in _outputs(opts):
+        problem = path_problem(path)
+        if problem:
+            return escape_control(f"error: {path}: {problem}")
+        key = os.path.abspath(path)
+        if key in seen:
+            return escape_control(f"error: {path}: {what} and {seen[key]} name the same file")
+        seen[key] = what
+    return None
+
+
+def rescue(film: "Film", key: Optional["RenderKey"], stem: str) -> list[Path]:
+    """Save `film` where it can be saved (the temporary folder, else the current one, else home):
+    a state to resume from when `key` is known, and the linear image as PFM. The files written."""
+    from renderer.film import write_pfm
+    from renderer.state import save_state
+
+    folders = [Path(tempfile.gettempdir()), Path.cwd(), Path.home()]
+    name = f"rt-rescued-{stem[:64]}-{os.getpid()}"
+    for folder in folders:
+        written: list[Path] = []
+        try:
+            if key is not None:
+                save_state(folder / f"{name}.npz", film, key)
+                written.append(folder / f"{name}.npz")
+            write_pfm(folder / f"{name}.pfm", film.mean())
+            written.append(folder / f"{name}.pfm")
+            return written
+        except OSError:
+            continue
+    return []
+
+
+def write_outputs(
+    opts: "RenderOptions", film: "Film", key: Optional["RenderKey"], fail: Callable[[str], Exception]
+) -> "NoiseEstimate":
+    """Write every output of the render; on a failure, rescue the film and raise `fail(message)`."""
+    from renderer.film import estimate_noise, noise_map_image, write_image
+    from renderer.state import save_state
+    from scenefmt.diagnostics import escape_control
+    from scenefmt.files import describe_os_error
+
+    image = film.mean()
+    estimate = estimate_noise(film)
+    steps = []
+    if opts.save_state is not None:
+        steps.append((opts.save_state, lambda: save_state(opts.save_state, film, key)))
+    steps.append((opts.out, lambda: write_image(opts.out, image)))
+    if opts.hdr is not None:
+        steps.append((opts.hdr, lambda: write_image(opts.hdr, image)))
+    if opts.noise_map is not None:
+        steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate))))
+    for path, step in steps:
+        try:
+            step()
+        except (OSError, ValueError) as exc:
+            reason = describe_os_error(exc) if isinstance(exc, OSError) else str(exc)
+            saved_state = opts.save_state is not None and path != opts.save_state
+            rescued = [] if saved_state else rescue(film, key, Path(str(opts.scene)).stem)
+            if saved_state:
+                where = f"the samples are saved in {opts.save_state} (continue with --resume)"
+            elif rescued:
+                where = f"the {film.samples} samples per pixel are saved in " + " and ".join(str(p) for p in rescued)
+            else:
+                where = "and no folder could hold a copy of the samples"
+            raise fail(escape_control(f"error: cannot write {path}: {reason}; {where}"))
+    return estimate

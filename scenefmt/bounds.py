@@ -1,0 +1,378 @@
+"""What a valid scene implies, checked before the renderer derives or allocates it.
+
+Each number of a file is bounded where it is written (`base.MAX_MAGNITUDE`), but a scene can
+still ask for the impossible through what the renderer derives from several numbers:
+
+- transforms: a chain of steps, and instances nested in instances, multiply; a product can
+  overflow, underflow to a singular map, or flatten a shape (`check_transform`, and the walk
+  over groups in `check_scene`);
+- colours: a path's weight is a product of reflectances and its value an emitted radiance; a
+  reflectance above 1 grows without bound with depth, and a radiance near 1e300 overflows
+  the film's sums of squares (`check_colours`);
+- size: nested instances multiply (ten groups of ten instances each are 10^10 shapes), image
+  textures decode to 12 bytes a pixel and more, and the film holds several arrays of doubles a
+  pixel (`estimate_memory`), against a share of this machine's physical memory.
+
+Everything is pure Python over the node graph; each problem is placed at the line and column of
+the value that causes it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+from .affine import Affine, compose, step_matrix
+from .diagnostics import Diagnostic
+
+# A path's throughput is a product of reflectances: at most 1 each, so it cannot grow with depth.
+MAX_REFLECTANCE = 1.0
+# Emitted and background radiance; far above any light of the books (15), far below overflow:
+# squared and summed over 1e6 samples per pixel it stays below 1e31.
+MAX_RADIANCE = 1e12
+# World-space bounds of every shape after all its transforms: squares and triple products of
+# such lengths stay finite and non-zero in float64.
+MAX_EXTENT = 1e60
+MIN_SIZE = 1e-60
+# A map may stretch one direction at most this much more than another (a shape flattened further
+# is numerically a plane: the inverse the renderer needs loses every digit).
+MAX_ANISOTROPY = 1e12
+# Instances flattened into the top-level tree: each costs a transform, its inverse and tree nodes.
+MAX_PLACEMENTS = 5_000_000
+# The share of physical memory a scene may need, by the estimate below (the rest is the system's,
+# the interpreter's and the kernels' own).
+MEMORY_SHARE = 0.75
+# Bytes per unit, with the working copies the renderer makes: the film holds sums and sums of
+# squares of float64 RGB, then the mean, its 8-bit form and the noise estimate's temporaries;
+# a texture is decoded (up to 8 bytes a pixel), converted to 8-bit RGB, then to float32 texels
+# that are copied once more when all images are joined; a placement and a primitive are Python
+# rows while flattening, then numpy rows and tree nodes.
+FILM_BYTES_PER_PIXEL = 6 * 3 * 8
+TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
+PLACEMENT_BYTES = 1500
+PRIMITIVE_BYTES = 1000
+
+
+def physical_memory() -> int:
+    """Bytes of physical memory of this machine (8 GiB where the system does not say)."""
+    try:
+        pages, page_size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+        if pages > 0 and page_size > 0:
+            return int(pages) * int(page_size)
+    except (AttributeError, ValueError, OSError):
+        pass
+    return 8 << 30
+
+
+def memory_limit() -> int:
+    return int(MEMORY_SHARE * physical_memory())
+
+
+def gib(n: float) -> str:
+    if n >= 1 << 30:
+        return f"{n / (1 << 30):.1f} GiB"
+    return f"{n / (1 << 20):.1f} MiB"
+
+
+# ----------------------------------------------------------------------------------------------
+# Transforms
+
+
+def _linear_stats(m: Affine) -> tuple[float, float, float]:
+    """(Frobenius norm of the linear part, |det|, largest |translation|)."""
+    a = [row[:3] for row in m]
+    norm = math.sqrt(sum(x * x for row in a for x in row))
+    det = (
+        a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0])
+    )
+    return norm, abs(det), max(abs(row[3]) for row in m)
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """Bounds on how a map changes lengths: it stretches none by more than `most` and shrinks
+    none below `least` of itself; `shift` is its largest translation."""
+
+    most: float
+    least: float
+    shift: float
+
+    @classmethod
+    def of(cls, m: Affine) -> "Stretch":
+        norm, det, shift = _linear_stats(m)
+        # The singular values s1 >= s2 >= s3 have s1 <= norm and s1 s2 s3 = det, so s3 >= det / norm^2.
+        least = det / (norm * norm) if norm > 0 else 0.0
+        return cls(norm, least, shift)
+
+
+def transform_problem(m: Affine) -> Optional[str]:
+    """Why the map `m` cannot be rendered (overflow, singular, flattened), or None."""
+    norm, det, shift = _linear_stats(m)
+    if not (math.isfinite(norm) and math.isfinite(shift)) or norm > MAX_EXTENT or shift > MAX_EXTENT:
+        return f"the steps up to here multiply to a map with entries beyond {MAX_EXTENT:g}"
+    least = det / (norm * norm) if norm > 0 else 0.0
+    if not least >= MIN_SIZE:
+        return f"the steps up to here multiply to a map that shrinks some direction below {MIN_SIZE:g} of its length (singular)"
+    if norm / least > MAX_ANISOTROPY:
+        return (
+            f"the steps up to here multiply to a map that stretches one direction {norm / least:.3g} times more than "
+            f"another (at most {MAX_ANISOTROPY:g}): it flattens the shape"
+        )
+    return None
+
+
+def check_transform(steps, path: tuple, report: Callable[[tuple, str], None]) -> None:
+    """Report at the first step after which the product of `steps` is unusable."""
+    m: Affine = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
+    for i, step in enumerate(steps):
+        m = compose(step_matrix(step), m)
+        problem = transform_problem(m)
+        if problem:
+            report(path + ("transform", i), problem)
+            return
+
+
+# ----------------------------------------------------------------------------------------------
+# Shapes: their extent (largest coordinate) and smallest size, in their own coordinates
+
+
+def _norm(v) -> float:
+    return math.sqrt(sum(float(x) * float(x) for x in v))
+
+
+def _sup(v) -> float:
+    return max(abs(float(x)) for x in v)
+
+
+def shape_extent_and_size(model) -> tuple[float, float]:
+    kind = model.type
+    if kind == "sphere":
+        return _sup(model.center) + model.radius, model.radius
+    if kind == "moving_sphere":
+        return max(_sup(model.center0), _sup(model.center1)) + model.radius, model.radius
+    if kind == "disk":
+        return _sup(model.center) + model.radius, model.radius
+    if kind == "quad":
+        lu, lv = _norm(model.u), _norm(model.v)
+        cross = _norm(_cross(model.u, model.v))
+        return _sup(model.q) + lu + lv, min(lu, lv, cross / max(lu, lv))
+    if kind == "triangle":
+        p0, p1, p2 = model.vertices
+        edges = [_norm(_sub(b, a)) for a, b in ((p0, p1), (p1, p2), (p2, p0))]
+        area2 = _norm(_cross(_sub(p1, p0), _sub(p2, p0)))
+        return max(_sup(p) for p in model.vertices), min(min(edges), area2 / max(edges))
+    if kind == "box":
+        return max(_sup(model.min), _sup(model.max)), min(hi - lo for lo, hi in zip(model.min, model.max))
+    raise TypeError(kind)
+
+
+def _sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+# ----------------------------------------------------------------------------------------------
+# The whole scene: extents through instances, placements, memory
+
+
+@dataclass
+class GroupFacts:
+    extent: float = 0.0  # largest coordinate of anything in the group, in its coordinates
+    size: float = math.inf  # smallest size of anything in it
+    placements: int = 0  # top-level instances the renderer makes when it places the group
+    shapes: int = 0  # shapes after every instance is expanded
+
+
+@dataclass
+class MemoryEstimate:
+    """Bytes the renderer will need, by part, and where in the file each part comes from."""
+
+    film: int = 0
+    textures: int = 0
+    instances: int = 0
+    primitives: int = 0
+    placements: int = 0
+    expanded_shapes: int = 0
+    parts: dict = field(default_factory=dict)  # part -> key path of its biggest cause
+
+    @property
+    def total(self) -> int:
+        return self.film + self.textures + self.instances + self.primitives
+
+    def describe(self) -> str:
+        shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees")]
+        return ", ".join(f"{name} {gib(n)}" for n, name in shown if n >= 1 << 20) or "under 1 MiB"
+
+
+class SceneBounds:
+    """Walks a resolved graph once, memoising per group; `problems` lists what it found."""
+
+    def __init__(self, graph, diagnostic: Callable[[tuple, str], Diagnostic]):
+        self.graph = graph
+        self.diagnostic = diagnostic
+        self.problems: list[Diagnostic] = []
+        self.facts: dict[int, GroupFacts] = {}
+        self.biggest_instance: tuple[int, tuple] = (0, ())
+        self.groups_seen: dict[int, object] = {}
+
+    def report(self, path: tuple, message: str) -> None:
+        self.problems.append(self.diagnostic(path, message))
+
+    def group(self, group) -> GroupFacts:
+        key = id(group)
+        if key in self.facts:
+            return self.facts[key]
+        facts = GroupFacts()
+        self.facts[key] = facts  # cycles are refused before this walk; this guards it anyway
+        self.groups_seen[key] = group
+        has_own = False
+        for member in group.members:
+            stretch = Stretch.of(member.transform)
+            if member.kind == "instance":
+                inner = self.group(member.group)
+                extent, size = inner.extent, inner.size
+                facts.placements += inner.placements
+                facts.shapes += inner.shapes
+                # The outermost instance of the most placements (groups are walked inside out).
+                if inner.placements >= self.biggest_instance[0]:
+                    self.biggest_instance = (inner.placements, member.path)
+            else:
+                extent, size = shape_extent_and_size(member.model)
+                has_own = True
+                facts.shapes += 1
+                if member.kind in ("sphere", "moving_sphere") and member.transform != ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)):
+                    facts.placements += 1  # an ellipsoid gets a tree and a placement of its own
+            placed_extent = stretch.most * extent + stretch.shift
+            placed_size = stretch.least * size
+            where = member.path + (("transform",) if member.transform != _IDENTITY else ())
+            if not placed_extent <= MAX_EXTENT:
+                self.report(where, f"placed here, the shape reaches {placed_extent:.3g} from the origin, beyond the {MAX_EXTENT:g} allowed")
+                continue  # reported once, here, not again by every instance around it
+            if size != math.inf and not placed_size >= MIN_SIZE:
+                self.report(where, f"placed here, the shape is {placed_size:.3g} across in some direction, below the {MIN_SIZE:g} allowed")
+                continue
+            facts.extent = max(facts.extent, placed_extent)
+            facts.size = min(facts.size, placed_size)
+        if has_own:
+            facts.placements += 1
+        return facts
+
+
+_IDENTITY: Affine = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
+
+
+def _image_pixels(path) -> int:
+    import warnings
+
+    from PIL import Image
+
+    from .files import open_regular_file
+
+    try:
+        with warnings.catch_warnings(), open_regular_file(path) as fh:
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # we say more, below
+            with Image.open(fh) as img:
+                return img.width * img.height
+    except Exception:  # noqa: BLE001 - checked and reported by the graph already
+        return 0
+
+
+def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate:
+    """The memory a render of `graph` will need, by part (see the constants above)."""
+    if walk is None:
+        walk = SceneBounds(graph, lambda path, message: Diagnostic("<scene>", 0, 0, path, message))
+    root = walk.group(graph.root)
+    est = MemoryEstimate()
+    image = graph.image
+    est.film = image.width * image.pixel_height * FILM_BYTES_PER_PIXEL
+    est.parts["film"] = ("image", "width")
+    biggest = (0, ())
+    for node in graph.textures:
+        if node.image_path is not None:
+            n = _image_pixels(node.image_path) * TEXTURE_BYTES_PER_PIXEL
+            est.textures += n
+            if n > biggest[0]:
+                biggest = (n, node.path + ("file",))
+    est.parts["textures"] = biggest[1]
+    est.placements = root.placements
+    est.expanded_shapes = root.shapes
+    est.instances = root.placements * PLACEMENT_BYTES
+    est.parts["instances"] = walk.biggest_instance[1]
+    primitives = 0
+    for group in walk.groups_seen.values():
+        primitives += sum(6 if m.kind == "box" else 1 for m in group.members if m.kind != "instance")
+    est.primitives = primitives * PRIMITIVE_BYTES
+    est.parts["shapes and trees"] = ("shapes",)
+    return est
+
+
+def check_scene(graph, diagnostic: Callable[[tuple, str], Diagnostic]) -> tuple[list[Diagnostic], MemoryEstimate]:
+    """Every problem of what `graph` implies (extents, placements, colours, memory) and the estimate."""
+    walk = SceneBounds(graph, diagnostic)
+    estimate = estimate_memory(graph, walk)
+    problems = walk.problems
+    if estimate.placements > MAX_PLACEMENTS:
+        problems.append(
+            diagnostic(
+                estimate.parts["instances"],
+                f"the instances expand to {estimate.placements:,} placements ({estimate.expanded_shapes:,} shapes), "
+                f"more than the {MAX_PLACEMENTS:,} allowed",
+            )
+        )
+    problems += memory_problems(estimate, diagnostic)
+    return problems, estimate
+
+
+def memory_problems(estimate: MemoryEstimate, diagnostic: Callable[[tuple, str], Diagnostic]) -> list[Diagnostic]:
+    limit = memory_limit()
+    if estimate.total <= limit:
+        return []
+    parts = {"film": estimate.film, "textures": estimate.textures, "instances": estimate.instances, "shapes and trees": estimate.primitives}
+    worst = max(parts, key=parts.get)
+    return [
+        diagnostic(
+            estimate.parts.get(worst, ()),
+            f"rendering this scene needs about {gib(estimate.total)} ({estimate.describe()}), more than the "
+            f"{gib(limit)} allowed on this machine ({MEMORY_SHARE:.0%} of its {gib(physical_memory())} of memory)",
+        )
+    ]
+
+
+# ----------------------------------------------------------------------------------------------
+# Colours
+
+
+def texture_peak(node) -> tuple[float, tuple]:
+    """The largest component a texture can take (noise: of its colour) and the node whose colour
+    it is, with the key of that colour: ("color",) for a texture definition, () for a bare [r, g, b]."""
+    m = node.model
+    if m.type == "checker":
+        peaks = [texture_peak(child) for child in node.inputs.values()]
+        return max(peaks, key=lambda p: p[0]) if peaks else (0.0, node.path)
+    if m.type in ("solid", "noise"):
+        return max(m.color), node.path
+    return 1.0, node.path  # an image: 8-bit values, at most 1 in either colour space
+
+
+def check_memory(graph, document=None) -> MemoryEstimate:
+    """The memory estimate of `graph` (as changed after loading: `rt render --width`); raises
+    SceneError, placed in `document`, when this machine cannot hold it."""
+    from .diagnostics import SceneError
+
+    def diagnostic(path: tuple, message: str) -> Diagnostic:
+        if document is not None:
+            return document.diagnostic(path, message)
+        return Diagnostic(graph.source or "<scene>", 0, 0, tuple(path), message)
+
+    estimate = estimate_memory(graph)
+    problems = memory_problems(estimate, diagnostic)
+    if problems:
+        raise SceneError(problems)
+    return estimate

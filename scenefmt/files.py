@@ -1,0 +1,110 @@
+"""Reading a file named by a user or a scene: regular files only, never more than a limit.
+
+A path can name something that is not a file at all: `/dev/zero` (directly or through a
+symlink) never ends, a FIFO blocks until a writer comes, a directory cannot be read. A name
+can be unusable: a NUL byte, longer than the system allows, a loop of symlinks. Each of these
+becomes a `FileProblem` with a sentence to show, never a traceback or a hang: the file is
+opened without blocking, checked to be a regular file on the open descriptor (so a swap
+between check and read changes nothing), and read to at most the limit plus one byte.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+from pathlib import Path
+
+
+class FileProblem(Exception):
+    """A file cannot be used; the message says why, in words."""
+
+
+_KINDS = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def describe_os_error(exc: OSError) -> str:
+    """An OSError in words, without the file name (the caller names the file)."""
+    if exc.errno == errno.ENAMETOOLONG:
+        return "the file name is longer than the system allows"
+    if exc.errno == errno.ELOOP:
+        return "the path runs through a loop of symbolic links (or too many of them)"
+    return exc.strerror or str(exc)
+
+
+def path_problem(path) -> str | None:
+    """Why `path` cannot even be looked up (a NUL byte, an empty name), or None."""
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "surrogateescape")
+    if "\x00" in text:
+        return "the file name contains a NUL byte"
+    if text == "":
+        return "the file name is empty"
+    return None
+
+
+def kind_of(mode: int) -> str | None:
+    """'a directory', 'a FIFO (named pipe)', ... for anything but a regular file; None for one."""
+    if stat.S_ISREG(mode):
+        return None
+    for test, name in _KINDS:
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def open_regular_file(path):
+    """The regular file at `path` opened for binary reading (a file object); FileProblem otherwise."""
+    fd = _open_regular(path)
+    return os.fdopen(fd, "rb")
+
+
+def _open_regular(path) -> int:
+    problem = path_problem(path)
+    if problem:
+        raise FileProblem(problem)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(Path(path), flags)
+    except OSError as exc:
+        raise FileProblem(f"cannot read the file: {describe_os_error(exc)}") from None
+    try:
+        kind = kind_of(os.fstat(fd).st_mode)
+    except OSError as exc:
+        os.close(fd)
+        raise FileProblem(f"cannot read the file: {describe_os_error(exc)}") from None
+    if kind is not None:
+        os.close(fd)
+        raise FileProblem(f"is {kind}, not a regular file")
+    return fd
+
+
+def read_regular_file(path, limit: int) -> bytes:
+    """The bytes of the regular file at `path`, at most `limit` of them; FileProblem otherwise."""
+    fd = _open_regular(path)
+    try:
+        info = os.fstat(fd)
+        if info.st_size > limit:
+            raise FileProblem(f"the file is larger than the {limit:,} bytes allowed ({info.st_size:,} bytes)")
+        chunks = []
+        size = 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        if size > limit:  # it grew while being read
+            raise FileProblem(f"the file is larger than the {limit:,} bytes allowed")
+        return b"".join(chunks)
+    except OSError as exc:
+        raise FileProblem(f"cannot read the file: {describe_os_error(exc)}") from None
+    finally:
+        os.close(fd)

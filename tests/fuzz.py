@@ -88,6 +88,7 @@ class Counts:
     hangs: int = 0
     raw_control: int = 0
     rendered: int = 0
+    too_big_to_render: int = 0  # accepted, but more placements than a tiny render should flatten
     states: int = 0
     states_accepted: int = 0
     paths: int = 0
@@ -107,7 +108,7 @@ class Counts:
     def report(self) -> str:
         lines = [
             f"cases: {self.cases}",
-            f"accepted: {self.accepted} (rendered: {self.rendered})",
+            f"accepted: {self.accepted} (rendered: {self.rendered}; too big to render tiny: {self.too_big_to_render})",
             f"rejected with a position: {self.rejected_with_position}",
             f"rejected without a position: {self.rejected_without_position}",
             f"tracebacks: {self.tracebacks}",
@@ -387,6 +388,9 @@ def prepare_hostile_dir(work: Path) -> Path:
     return hostile
 
 
+RENDER_PLACEMENTS = 20_000
+
+
 def render_tiny(loaded, rng: random.Random):
     """Render the scene at 4x4 pixels; (all pixels finite, noise figure not NaN)."""
     import dataclasses
@@ -505,6 +509,13 @@ def _scene(counts, rng, sources, documents, hostile, case, time_limit, render_ti
             tracemalloc.stop()
     counts.accepted += 1
     if rng.random() >= render_share:
+        return
+    from scenefmt.bounds import estimate_memory
+
+    if estimate_memory(loaded.graph).placements > RENDER_PLACEMENTS:
+        # Finite pixels do not depend on how many copies there are; flattening millions of them
+        # in Python costs minutes (the scaling benchmark measures that).
+        counts.too_big_to_render += 1
         return
     try:
         _timed(render_time_limit)

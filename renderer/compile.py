@@ -17,7 +17,7 @@ import numpy as np
 from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
 
-from . import background, camera, materials, media
+from . import background, camera, lights, materials, media
 from .bvh import WIDTH, build_bvh, single_leaf, widen
 from .flat import FlatScene
 from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
@@ -65,6 +65,7 @@ class _Walk:
         self.tree_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
+        self.emitters = False  # whether any primitive's material is a diffuse light
         # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
         self.own_instance: dict[int, int] = {}
         # A scene's many shapes share a few transforms.
@@ -106,6 +107,7 @@ class _Walk:
         if surface is None:
             return False
         if mat is not None:
+            self.emitters = self.emitters or shape.material.kind == "diffuse_light"
             for kind, row, lo, hi in surface:
                 tree.add(kind, row, mat, lo, hi)
         if shape.interior is not None:
@@ -166,9 +168,10 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     build_tree = build_bvh if use_bvh else single_leaf
     prim_i, prim_f, node_f, node_i = [], [], [], []
     prim_count = node_count = 0
-    tree_root, tree_lo, tree_hi = [], [], []
+    tree_root, tree_lo, tree_hi, tree_prims = [], [], [], []
     for tree in walk.trees:
         tree_root.append(node_count)
+        tree_prims.append((prim_count, len(tree)))
         if not len(tree):
             tree_lo.append(np.full(3, np.inf))
             tree_hi.append(np.full(3, -np.inf))
@@ -217,7 +220,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     mat_i = _array(walk.mat_i, MATERIAL_I, np.int32)
     for row in range(len(mat_i)):
         mat_i[row, MAT_READS_UV] = walk.textures.reads_uv(mat_i[row, MAT_TEXTURE])
-    return FlatScene(
+    flat = FlatScene(
         prims_i=cat(prim_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),
         bnd_i=np.array(walk.bnd_kind, np.int32),
@@ -233,7 +236,16 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **walk.textures.arrays(),
         camera=np.array(camera.flatten(walk.graph), np.float64),
         background=np.array(background.flatten(walk.graph), np.float64),
+        **lights.no_lights(prim_count, count),
     )
+    if walk.emitters:
+        flat = flat._replace(**lights.flatten(flat, [tree_prims[walk.instances[k][0]] for k in order]))
+    return flat
+
+
+def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:
+    """The graph rendered with another estimator (kernels/integrator.INTEGRATORS)."""
+    return dataclasses.replace(graph, image=graph.image.model_copy(update={"integrator": integrator}))
 
 
 def with_width(graph: SceneGraph, width: int) -> SceneGraph:

@@ -42,6 +42,12 @@ class FlatScene(NamedTuple):
     # Camera and background: camera.CAMERA, background.py.
     camera: np.ndarray
     background: np.ndarray
+    # Lights (lights.py): emitters by (instance, primitive), the cdf to choose one by power, and
+    # the light row of a hit: inst_light[instance] + prim_light[primitive].
+    light_i: np.ndarray  # LIGHT_I
+    light_f: np.ndarray  # LIGHT_F
+    inst_light: np.ndarray  # (I,) int32
+    prim_light: np.ndarray  # (P,) int32, -1 where the primitive does not emit
 
 
 class Frame(NamedTuple):
@@ -52,8 +58,9 @@ class Frame(NamedTuple):
     samples: int
     max_depth: int
     seed: int
+    integrator: str = "mis"  # kernels/integrator.INTEGRATORS
 
     @classmethod
     def of(cls, graph: "SceneGraph") -> "Frame":
         image = graph.image
-        return cls(image.width, image.pixel_height, image.samples_per_pixel, image.max_depth, image.seed)
+        return cls(image.width, image.pixel_height, image.samples_per_pixel, image.max_depth, image.seed, image.integrator)

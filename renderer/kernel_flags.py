@@ -20,5 +20,6 @@ NOISE = True  # Perlin noise textures
 EMITTERS = True  # diffuse lights
 DIELECTRICS = True  # refraction
 SKY = True  # the sky-gradient background
+LIGHTS = True  # light sampling: shadow rays to points on emitters, weighted with the path's own hits
 
-NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY")
+NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS")

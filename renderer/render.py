@@ -16,6 +16,7 @@ import numpy as np
 from .film import Film, relative_noise
 from .flat import FlatScene, Frame
 from .jit_cache import configure as kernel_cache_folder
+from .kernels.integrator import INTEGRATORS
 from .variants import GENERAL, KernelFeatures, features_of, first_kernel, is_compiled, kernels_for, mark_compiled, worth_specialising
 
 if TYPE_CHECKING:
@@ -102,6 +103,7 @@ def render_flat(
     target = samples if samples is not None else frame.samples
     depth = max_depth if max_depth is not None else frame.max_depth
     seed = seed if seed is not None else frame.seed
+    estimator = INTEGRATORS[frame.integrator]
     stats = RenderStats(target_samples=target)
     if features is not None and not features.covers(needed):
         raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
@@ -120,7 +122,7 @@ def render_flat(
                    f"{kernel_cache_folder()}")
         t0 = time.perf_counter()
         chosen_pass = kernels_for(chosen).render_pass
-        chosen_pass(flat, 1, 1, seed, 0, 0, depth, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
+        chosen_pass(flat, 1, 1, seed, 0, 0, depth, estimator, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), row_rays[:1], row_bad[:1])
         stats.kernel_seconds += time.perf_counter() - t0
         mark_compiled(chosen)
         return chosen_pass
@@ -145,7 +147,7 @@ def render_flat(
             per_sample = stats.seconds / max(1, film.samples - stats_start_samples)
             n = max(1, min(n, int((time_budget - elapsed) / per_sample))) if per_sample > 0 else n
         t0 = time.perf_counter()
-        render_pass(flat, width, height, seed, film.samples, n, depth, film.total, film.total_sq, row_rays, row_bad)
+        render_pass(flat, width, height, seed, film.samples, n, depth, estimator, film.total, film.total_sq, row_rays, row_bad)
         dt = time.perf_counter() - t0
         if stats.first_pass_seconds == 0.0:
             stats.first_pass_seconds = dt

@@ -30,7 +30,7 @@ from scenefmt.bounds import MAX_RADIANCE
 
 from .film import Film, _atomic_write
 
-STATE_VERSION = 1
+STATE_VERSION = 2  # 2: the key holds the integrator
 # Samples per pixel a state may hold (the command line's cap, `--spp`).
 MAX_STATE_SAMPLES = 1_000_000
 _HEADER_BYTES = 4096  # an .npy header is at most this long here
@@ -50,6 +50,7 @@ class RenderKey:
     height: int
     max_depth: int
     seed: int
+    integrator: str = "mis"  # samples of different estimators have the same mean but are not one render
 
 
 def scene_fingerprint(scene_json: str) -> str:
@@ -106,6 +107,11 @@ def _parse_npy(data: bytes, name: str, where: str, shape: tuple, kind: str) -> n
     return array.reshape(shape, order="F" if fortran else "C")
 
 
+def escape_version(value) -> str:
+    """A version field as it may be shown: an integer, or what it is instead (never its text)."""
+    return str(value) if type(value) is int else f"that is not a number ({type(value).__name__})"  # noqa: E721
+
+
 def _meta(raw: np.ndarray, where: str) -> dict:
     try:
         meta = json.loads(str(raw[()]))
@@ -113,7 +119,12 @@ def _meta(raw: np.ndarray, where: str) -> dict:
         raise StateError(f"{where}: its metadata is not JSON ({exc})") from None
     if not isinstance(meta, dict):
         raise StateError(f"{where}: its metadata is a {type(meta).__name__}, not a mapping")
-    fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "samples": int}
+    if meta.get("version") != STATE_VERSION:
+        # Version 1 had no integrator: its samples were the books' estimator's, at a time when
+        # that was the only one.
+        raise StateError(f"{where}: a render state of version {escape_version(meta.get('version'))}; this rt reads version "
+                         f"{STATE_VERSION} (render it again)")
+    fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "integrator": str, "samples": int}
     if set(meta) != set(fields):
         missing, extra = sorted(set(fields) - set(meta)), sorted(set(meta) - set(fields))
         raise StateError(f"{where}: its metadata has the wrong fields (missing {missing}, unknown {extra})")
@@ -149,7 +160,7 @@ def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES)
         meta = _meta(meta_raw, where)
         if meta["version"] != STATE_VERSION:
             raise StateError(f"{where}: a render state of an unknown version ({meta['version']})")
-        saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"])
+        saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"], meta["integrator"])
         if saved != key:
             diffs = [f"{name} {getattr(saved, name)} (now {getattr(key, name)})" for name in key.__dict__
                      if getattr(saved, name) != getattr(key, name)]

@@ -53,6 +53,7 @@ class KernelFeatures:
     emitters: bool = True
     dielectrics: bool = True
     sky: bool = True
+    lights: bool = True
 
     @property
     def is_general(self) -> bool:

@@ -133,6 +133,11 @@ def render(
     explain: bool = typer.Option(
         False, "--explain", help="Print which effects the scene uses, and the element that switches each on."
     ),
+    integrator: Optional[str] = typer.Option(
+        None, "--integrator",
+        help="How light is found (overrides the file): mis (light sampling with multiple importance sampling, the "
+        "default) or path (the books' estimator, which finds lights only by chance).",
+    ),
     kernel: str = typer.Option(
         "auto", "--kernel",
         help="Which compiled kernel renders: auto (whatever is compiled; specialise a long render), general, or "
@@ -148,7 +153,7 @@ def render(
     opts = RenderOptions(
         scene=scene, output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
-        kernel=kernel,
+        kernel=kernel, integrator=integrator,
     )
     try:
         run(opts, started)

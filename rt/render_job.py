@@ -38,6 +38,7 @@ class RenderOptions:
     resume: Optional[Path] = None
     explain: bool = False
     kernel: str = "auto"
+    integrator: Optional[str] = None
 
     @property
     def out(self) -> Path:
@@ -109,6 +110,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     if opts.kernel not in KERNEL_CHOICES:
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
+    if opts.integrator is not None and opts.integrator not in ("mis", "path"):
+        raise fail(f"error: --integrator {opts.integrator!r}: expected mis or path")
     for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".pfm",)), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
@@ -120,7 +123,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if problem:
         raise fail(problem)
 
-    from renderer.compile import compile_scene, with_width
+    from renderer.compile import compile_scene, with_integrator, with_width
     from renderer.flat import Frame
     from renderer.variants import features_of
     from scenefmt.bounds import check_memory
@@ -130,6 +133,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     try:
         loaded = load(opts.scene)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
+        if opts.integrator is not None:
+            graph = with_integrator(graph, opts.integrator)
         check_memory(graph, loaded.document)  # --width changes the film's size
         flat = compile_scene(graph)
     except SceneError as exc:
@@ -141,7 +146,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if opts.explain:
         from scenefmt.effects import summarize
 
-        for effect in summarize(loaded.graph).effects:
+        say(f"integrator: {graph.image.integrator}", err=True)
+        for effect in summarize(graph).effects:
             say(f"{effect}", err=True)
     fingerprint = None
     if opts.resume is not None or opts.save_state is not None:
@@ -231,6 +237,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
             frame.height,
             opts.max_depth if opts.max_depth is not None else frame.max_depth,
             opts.seed if opts.seed is not None else frame.seed,
+            frame.integrator,
         )
 
     film = None
@@ -281,7 +288,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
     total = time.perf_counter() - started
     written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
     say(
-        f"wrote {written}: {film.width}x{film.height}, {film.samples} spp, {fmt_seconds(stats.seconds)} rendering "
+        f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
         f"({fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
     wx, wy = estimate.worst_pixel

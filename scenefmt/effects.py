@@ -27,6 +27,7 @@ EFFECTS = (
     ("emitters", "emitters"),
     ("dielectrics", "dielectrics"),
     ("sky", "sky background"),
+    ("lights", "light sampling"),
 )
 EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
@@ -156,6 +157,10 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["dielectrics"] = Effect("", True, _first(dielectrics, lambda m: f"{format_path(m.path)} is glass-like"))
     if isinstance(graph.background, SkyBackground):
         found["sky"] = Effect("", True, "background: {type: sky}")
+    if emitters and graph.image.integrator == "mis":
+        found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
+    elif emitters:
+        found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

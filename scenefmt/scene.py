@@ -116,6 +116,12 @@ class Image(StrictModel):
     samples_per_pixel: int = Field(10, strict=True, ge=1, le=MAX_SAMPLES, description="Paths traced per pixel.")
     max_depth: int = Field(10, strict=True, ge=1, le=MAX_DEPTH, description="Most bounces a path may take.")
     seed: int = Field(0, strict=True, ge=0, le=2**63 - 1, description="Seed of the random numbers; the same seed gives the same image.")
+    integrator: Literal["mis", "path"] = Field(
+        "mis",
+        description="How light is found: mis samples points on the lights at every diffuse or medium vertex and "
+        "weighs them against the path's own hits (multiple importance sampling, with Russian roulette past a few "
+        "bounces); path is the books' estimator, which finds a light only by chance.",
+    )
 
     @field_validator("aspect_ratio", mode="before")
     @classmethod

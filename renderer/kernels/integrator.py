@@ -8,22 +8,47 @@ from numba import njit, prange
 from ..background import background
 from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..kernel_flags import EMITTERS, IMAGE, INSTANCES, MEDIA
-from ..materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
+from ..kernel_flags import EMITTERS, IMAGE, INSTANCES, LIGHTS, MEDIA
+from ..lights import light_pdf, sample_light
+from ..materials import DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
 from ..shapes import MEDIUM, PRIM_KIND, PRIM_MATERIAL
 from ..shapes.dispatch import spawn_origin, surface
 from ..textures import texture_value
-from .rng import bounce_dim, path_key
+from .rng import bounce_dim, light_dim, path_key, uniform
+from .shadow import transmittance
 from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
-from .vec import dot, madd, neg, unit, xform_normal, xform_point, xform_vector
+from .vec import dot, madd, neg, sub, unit, xform_normal, xform_point, xform_vector
+
+# The estimators (`image.integrator` in a scene file, `--integrator` on the command line).
+INTEGRATOR_PATH = 0
+INTEGRATOR_MIS = 1
+INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS}
+# Russian roulette starts after this many bounces: the first few carry most of the light.
+ROULETTE_AFTER = 3
+# A shadow ray stops this fraction short of the point on the light, so the light itself (whose
+# point is exact to a few ulps) never blocks it.
+SHADOW_MARGIN = 1e-7
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def trace(S, key, o, d, time, max_depth, stack, tstack):
-    """Radiance along one camera path, and the number of rays it cast."""
+def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
+    """Radiance along one camera path, and the number of rays it cast (shadow rays included).
+
+    With INTEGRATOR_PATH this is the books' estimator: a path finds a light only by chance.
+    With INTEGRATOR_MIS, every diffuse surface and every scattering event in a medium also
+    samples a point on a light and casts a shadow ray to it (next-event estimation); that
+    estimate and the path's own chance hit on a light are weighted by the power heuristic
+    (multiple importance sampling), and paths past a few bounces end by Russian roulette.
+    """
     r, g, b = 0.0, 0.0, 0.0
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
+    mis = integrator == INTEGRATOR_MIS
+    nee = LIGHTS and mis and S.light_i.shape[0] > 0
+    # The solid angle density with which the last vertex chose this ray's direction; 0 after
+    # the camera and after a metal or a dielectric, whose directions no light sampler can give.
+    prev_pdf = 0.0
+    prev_p = o
     for bounce in range(max_depth):
         rays += 1
         t, prim, inst = intersect_scene(
@@ -62,6 +87,11 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         tex = S.mat_i[mat, MAT_TEXTURE]
         if EMITTERS and kind == DIFFUSE_LIGHT:
             e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
+            if nee and prev_pdf > 0.0:
+                # The light sampler could have found this point too: weigh the two ways.
+                light = light_pdf(S, inst, prim, prev_p, p, n, time)
+                w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
+                e = (e[0] * w, e[1] * w, e[2] * w)
             r += tr * e[0]
             g += tg * e[1]
             b += tb * e[2]
@@ -70,11 +100,46 @@ def trace(S, key, o, d, time, max_depth, stack, tstack):
         if is_zero(new_d):
             break
         att = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
+        # The shadow ray is the path's next segment: only where max_depth allows one more.
+        if nee and bounce + 1 < max_depth and (kind == LAMBERTIAN or kind == ISOTROPIC):
+            ok, x, wi, dist, light, le = sample_light(S, p, time, key, bounce)
+            if kind == LAMBERTIAN:
+                density = dot(wi, n_front) / math.pi  # the cosine lobe's, and the BRDF times the cosine
+            else:
+                density = 1.0 / (4.0 * math.pi)  # the isotropic phase function
+            if ok and density > 0.0 and light > 0.0:
+                origin = p if prim_kind == MEDIUM else spawn_origin(p, o, n_front, wi)
+                rays += 1
+                seen = transmittance(S, origin, sub(x, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack)
+                if seen > 0.0:
+                    w = 1.0 / (1.0 + (density / light) ** 2)
+                    k = seen * density * w / light
+                    r += tr * att[0] * le[0] * k
+                    g += tg * att[1] * le[1] * k
+                    b += tb * att[2] * le[2] * k
         tr *= att[0]
         tg *= att[1]
         tb *= att[2]
         if tr == 0.0 and tg == 0.0 and tb == 0.0:
             break
+        if mis:
+            if kind == LAMBERTIAN:
+                prev_pdf = max(0.0, dot(unit(new_d), n_front)) / math.pi
+            elif kind == ISOTROPIC:
+                prev_pdf = 1.0 / (4.0 * math.pi)
+            else:
+                prev_pdf = 0.0
+            prev_p = p
+            if bounce >= ROULETTE_AFTER:
+                # Continue with probability of the path's largest throughput, and weigh it up by
+                # the same: unbiased, and a path that carries little stops early.
+                q = max(tr, tg, tb)
+                if q < 1.0:
+                    if uniform(key, light_dim(bounce, 3)) >= q:
+                        break
+                    tr /= q
+                    tg /= q
+                    tb /= q
         if MEDIA and prim_kind == MEDIUM:
             o = p
         else:
@@ -100,8 +165,9 @@ def row_stride(height):
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
-def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, total, total_sq, row_rays, row_bad):
-    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums."""
+def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
+    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums,
+    with the estimator `integrator` (INTEGRATOR_PATH or INTEGRATOR_MIS)."""
     stride = row_stride(height)
     for k in prange(height):
         j = (k * stride) % height
@@ -114,7 +180,7 @@ def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, t
             for s in range(sample_start, sample_start + sample_count):
                 key = path_key(seed, pixel, s)
                 o, d, time = camera_ray(S.camera, i, j, key)
-                r, g, b, n = trace(S, key, o, d, time, max_depth, stack, tstack)
+                r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
                 rays += n
                 if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
                     bad += 1  # counted and reported, never added to the image

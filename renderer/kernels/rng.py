@@ -29,6 +29,11 @@ DIMS_PER_BOUNCE = 10
 # Media draw their free-flight distance from a stream of their own, keyed by medium and bounce,
 # so the value does not depend on the order the BVH visits them in.
 DIM_MEDIUM = np.uint64(1) << np.uint64(62)
+# Light sampling (the choice of light, a point on it) and Russian roulette draw from a stream of
+# their own too, so the books' estimator keeps every number it had: bounce b uses
+# DIM_LIGHT + b * DIMS_PER_LIGHT + 0..3.
+DIM_LIGHT = np.uint64(1) << np.uint64(60)
+DIMS_PER_LIGHT = 4
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -55,3 +60,10 @@ def uniform(key, dim):
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def bounce_dim(bounce, k):
     return DIM_BOUNCE + bounce * DIMS_PER_BOUNCE + k
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def light_dim(bounce, k):
+    """Dimension k of bounce `bounce`'s light-sampling stream (unsigned all through: mixed with a
+    signed integer Numba would round it to a float, and 2^60 + k to 2^60)."""
+    return DIM_LIGHT + uint64(bounce) * uint64(DIMS_PER_LIGHT) + uint64(k)

@@ -11,6 +11,13 @@ import numpy as np
 from numba import njit
 
 from renderer.camera import camera_ray
+from renderer.config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
+from renderer.kernels.shadow import transmittance
+from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
+from renderer.kernels.vec import unit, xform_normal, xform_point, xform_vector
+from renderer.lights import light_pdf, sample_light
+from renderer.shapes import PRIM_KIND
+from renderer.shapes.dispatch import surface
 from renderer.kernels.rng import bounce_dim, path_key
 from renderer.materials import MATERIAL_F, MATERIAL_I, random_unit_vector, scatter
 from renderer.media import medium_hit
@@ -78,3 +85,72 @@ def texture_at(flat, tex, uv, points):
                           uv[k, 0], uv[k, 1], (points[k, 0], points[k, 1], points[k, 2]))
         out[k, 0], out[k, 1], out[k, 2] = c[0], c[1], c[2]
     return out
+
+
+# --- lights -----------------------------------------------------------------------------------
+
+
+
+@njit(cache=True, error_model="numpy")
+def _stacks():
+    return ((np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64)),
+            np.empty((BVH_STACK, 2)))
+
+
+@njit(cache=True, error_model="numpy")
+def _hit(S, p, d, time, stack, tstack):
+    """(prim, inst, point, unit normal) of the first surface along p + t d; prim -1 if none."""
+    t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+                                    S.bnd_i, S.bnd_f, p, d, 0.0, math.inf, time, np.uint64(1), 0, stack, tstack)
+    if prim < 0:
+        return prim, inst, p, p
+    kind = S.prims_i[prim, PRIM_KIND]
+    if S.inst_i[inst, INST_UNTRANSFORMED] != 1:
+        oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p)
+        dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+        po, no, _, _ = surface(kind, S.prims_f, prim, oo, dd, t, time, False)
+        return prim, inst, xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po), unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
+    x, n, _, _ = surface(kind, S.prims_f, prim, p, d, t, time, False)
+    return prim, inst, x, n
+
+
+@njit(cache=True, error_model="numpy")
+def light_samples(S, p, time, seed, n):
+    """n draws of `sample_light` from point p: rows (ok, direction 3, distance, pdf, emission 3,
+    the pdf `light_pdf` gives the first surface along the direction, that surface's distance)."""
+    out = np.zeros((n, 11))
+    stack, tstack = _stacks()
+    p = (p[0], p[1], p[2])
+    for k in range(n):
+        ok, x, wi, dist, pdf, le = sample_light(S, p, time, path_key(seed, k, 0), 0)
+        out[k, 0] = 1.0 if ok else 0.0
+        out[k, 1], out[k, 2], out[k, 3] = wi[0], wi[1], wi[2]
+        out[k, 4], out[k, 5] = dist, pdf
+        out[k, 6], out[k, 7], out[k, 8] = le[0], le[1], le[2]
+        if ok:
+            prim, inst, xh, nh = _hit(S, p, wi, time, stack, tstack)
+            if prim >= 0:
+                out[k, 9] = light_pdf(S, inst, prim, p, xh, nh, time)
+                out[k, 10] = math.sqrt((xh[0] - p[0]) ** 2 + (xh[1] - p[1]) ** 2 + (xh[2] - p[2]) ** 2)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def light_pdf_along(S, p, dirs, time):
+    """The light sampler's solid angle density from p in each direction of `dirs` (0 where no light is met first)."""
+    out = np.zeros(dirs.shape[0])
+    stack, tstack = _stacks()
+    p = (p[0], p[1], p[2])
+    for k in range(dirs.shape[0]):
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        prim, inst, xh, nh = _hit(S, p, d, time, stack, tstack)
+        if prim >= 0 and S.prim_light[prim] >= 0:
+            out[k] = light_pdf(S, inst, prim, p, xh, nh, time)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def segment_transmittance(S, o, target, time):
+    stack, tstack = _stacks()
+    d = (target[0] - o[0], target[1] - o[1], target[2] - o[2])
+    return transmittance(S, (o[0], o[1], o[2]), d, 1.0, time, stack, tstack)

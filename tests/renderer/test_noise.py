@@ -19,13 +19,19 @@ SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 @pytest.mark.parametrize("stem", ["weekend_metal", "cornell_box", "cornell_smoke"])
 def test_the_noise_estimate_agrees_with_the_actual_error(stem):
-    """Sky-lit spheres, a Cornell box and smoke: estimated RMS error within 20% of the actual one."""
+    """Sky-lit spheres, a Cornell box and smoke: estimated RMS error within 20% of the actual one.
+
+    The actual error is the scatter between four seeds: with light sampling most of the error
+    sits in the few pixels that hold a light's edge, so one seed's error is itself noisy.
+    """
     graph = with_width(load(SCENES / f"{stem}.yaml").graph, 32)
     reference = render(graph, samples=4096, seed=11).film.mean()
-    film = render(graph, samples=64, seed=1).film
-    actual = np.sqrt(np.sum((film.mean() - reference) ** 2) / np.sum(reference**2))
-    estimated = estimate_noise(film).relative_rms
-    assert estimated == pytest.approx(actual, rel=0.2)
+    actual2, estimated2 = [], []
+    for seed in range(1, 5):
+        film = render(graph, samples=64, seed=seed).film
+        actual2.append(np.sum((film.mean() - reference) ** 2) / np.sum(reference**2))
+        estimated2.append(estimate_noise(film).relative_rms ** 2)
+    assert np.sqrt(np.mean(estimated2)) == pytest.approx(np.sqrt(np.mean(actual2)), rel=0.2)
 
 
 def test_the_estimate_of_known_gaussian_samples():

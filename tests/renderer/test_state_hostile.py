@@ -18,13 +18,13 @@ import pytest
 
 from renderer.film import Film
 from renderer import state
-from renderer.state import RenderKey, load_state, save_state
+from renderer.state import STATE_VERSION, RenderKey, load_state, save_state
 
 KEY = RenderKey("ab" * 32, 4, 3, 5, 7)
 
 
 def meta_of(key: RenderKey = KEY, samples: int = 2, **changes) -> str:
-    return json.dumps({"version": 1, **key.__dict__, "samples": samples, **changes})
+    return json.dumps({"version": STATE_VERSION, **key.__dict__, "samples": samples, **changes})
 
 
 def state_bytes(total=None, total_sq=None, meta=None, compressed=False, extra=None) -> bytes:

@@ -47,6 +47,9 @@ SWITCH_ON = {
                     "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: glass}\n"),
     "sky": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
 }
+# Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
+SWITCH_ON["lights"] = SWITCH_ON["emitters"]
+ALSO_ON = {"lights": {"emitters": True}}
 
 
 def scene_text(flag=None):
@@ -56,6 +59,8 @@ def scene_text(flag=None):
         text = text.replace("vfov: 40}", "vfov: 40, defocus_angle: 2}")
     if flag == "sky":
         text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: sky}")
+    if flag == "emitters":
+        text = text.replace("max_depth: 6}", "max_depth: 6, integrator: path}")
     if head.startswith("materials:"):
         text = text.replace("materials:\n", head)
     elif "\nmaterials:\n" in head:  # a texture section and a material using it
@@ -83,7 +88,7 @@ def test_a_plain_scene_needs_no_optional_path():
 
 @pytest.mark.parametrize("flag", FLAGS)
 def test_each_element_switches_on_exactly_its_path(flag):
-    assert features_of(graph_of(flag)) == replace(NONE, **{flag: True})
+    assert features_of(graph_of(flag)) == replace(NONE, **{flag: True, **ALSO_ON.get(flag, {})})
 
 
 def test_a_moving_sphere_needs_no_motion_when_the_shutter_is_closed_or_it_stands_still():
@@ -139,7 +144,7 @@ def test_a_path_left_out_is_really_gone():
     for name, feats in (("without", no_media), ("with", GENERAL)):
         total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
         rays, bad = np.zeros(8, np.int64), np.zeros(8, np.int64)
-        kernels_for(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, total, total_sq, rays, bad)
+        kernels_for(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, 1, total, total_sq, rays, bad)
         images[name] = total
     assert not np.array_equal(images["without"], images["with"])
 

@@ -1,0 +1,211 @@
+"""Error at equal time: light sampling with MIS (`mis`, the default) against the books' estimator (`path`).
+
+    python benchmarks/integrators.py [--scenes cornell_box,cornell_smoke] [--width 600] [--seconds 6]
+                                     [--ref-spp 1024] [--mitsuba]
+
+For each scene at the given width: a converged reference (the default integrator at --ref-spp
+samples per pixel, another seed; cached in benchmarks/.cache/), then each integrator rendered
+for the same wall time, side by side in this process. Printed per integrator: samples per pixel
+reached, rays per second (shadow rays included), seconds per sample, the RMS error against the
+reference with the pixels that see a light directly left out (their value is the light's, the
+same for both), the renderer's own noise estimate, and the samples and seconds each needs for
+2% and 1% relative noise (from that estimate: noise falls as one over the square root of the
+samples). The ratio of the two errors is the figure the light-sampling issue asks for (at least
+8 on the 600 x 600 Cornell box).
+
+With --mitsuba (pip install mitsuba; its LLVM variant needs DRJIT_LIBLLVM_PATH set to a
+libLLVM.so of version 19 or so), the Cornell box is also rendered by Mitsuba 3's path tracer for
+the same wall time and its error against the same reference printed. Mitsuba's area lights are
+one-sided and ours two-sided; the box's light faces down, into the box, so the images agree.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CACHE = Path(__file__).resolve().parent / ".cache"
+TARGETS = (0.02, 0.01)
+
+
+def load_graph(stem: str, width: int):
+    from renderer.compile import with_width
+    from scenefmt.validation import load
+
+    return with_width(load(ROOT / "scenes" / f"{stem}.yaml").graph, width)
+
+
+def reference(stem: str, graph, width: int, spp: int) -> np.ndarray:
+    from renderer.compile import with_integrator
+    from renderer.render import render
+
+    CACHE.mkdir(exist_ok=True)
+    path = CACHE / f"{stem}-{width}-{spp}.npy"
+    if path.exists():
+        return np.load(path)
+    t0 = time.perf_counter()
+    result = render(with_integrator(graph, "mis"), samples=spp, seed=9001)
+    image = result.film.mean()
+    np.save(path, image)
+    print(f"  reference {stem}: {spp} spp in {time.perf_counter() - t0:.0f} s (cached in {path})", flush=True)
+    return image
+
+
+def error(image: np.ndarray, ref: np.ndarray, keep: np.ndarray) -> float:
+    """RMS error over the kept pixels (all channels)."""
+    return float(np.sqrt(np.mean((image[keep] - ref[keep]) ** 2)))
+
+
+def equal_time(graph, integrator: str, seconds: float):
+    from renderer.compile import compile_scene, with_integrator
+    from renderer.film import estimate_noise
+    from renderer.render import render
+
+    g = with_integrator(graph, integrator)
+    flat = compile_scene(g)
+    render(g, flat=flat, samples=1, kernel="general")  # load the kernel before the clock starts
+    result = render(g, flat=flat, samples=1_000_000, time_budget=seconds, seed=1, kernel="general")
+    noise = estimate_noise(result.film).relative_rms
+    return result, noise
+
+
+def mitsuba_cornell(width: int, seconds: float):
+    """Mitsuba 3's path tracer on the Cornell box for `seconds` of wall time: (image, spp, seconds)."""
+    import mitsuba as mi
+
+    variant = "llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb"
+    mi.set_variant(variant)
+    from scenefmt.validation import load
+
+    scene = load(ROOT / "scenes" / "cornell_box.yaml").scene
+    cam = scene.camera
+
+    def quad(q, u, v, bsdf=None, emitter=None):
+        q, u, v = np.array(q, float), np.array(u, float), np.array(v, float)
+        n = np.cross(u, v)
+        # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), q + u / 2 + v / 2
+        shape = {"type": "rectangle", "to_world": mi.ScalarTransform4f(m.tolist())}
+        if bsdf is not None:
+            shape["bsdf"] = bsdf
+        if emitter is not None:
+            shape["emitter"] = emitter
+        return shape
+
+    mats = {}
+    for name, material in scene.materials.items():
+        if material.type == "lambertian":
+            mats[name] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(material.albedo)}}
+        elif material.type == "diffuse_light":
+            mats[name] = {"type": "area", "radiance": {"type": "rgb", "value": list(material.emit)}}
+    objects = {}
+    for k, shape in enumerate(scene.shapes):
+        mat = scene.materials[shape.material] if isinstance(shape.material, str) else shape.material
+        name = shape.material if isinstance(shape.material, str) else f"m{k}"
+        if shape.type == "quad":
+            if mat.type == "diffuse_light":
+                # One-sided in Mitsuba: face it the way the light shines (down, into the box).
+                u, v = (shape.v, shape.u) if np.cross(shape.u, shape.v)[1] > 0 else (shape.u, shape.v)
+                objects[f"s{k}"] = quad(shape.q, u, v, emitter=mats[name])
+            else:
+                objects[f"s{k}"] = quad(shape.q, shape.u, shape.v, bsdf=mats[name])
+        elif shape.type == "box":
+            lo, hi = np.array(shape.min, float), np.array(shape.max, float)
+            m = np.eye(4)
+            m[:3, :3] = np.diag((hi - lo) / 2)
+            m[:3, 3] = (hi + lo) / 2
+            xf = np.eye(4)
+            for step in shape.transform or []:
+                s = np.eye(4)
+                if getattr(step, "rotate", None) is not None:
+                    axis = np.array(step.rotate.axis, float) / np.linalg.norm(step.rotate.axis)
+                    s[:3, :3] = _rotation(axis, math.radians(step.rotate.degrees))
+                elif getattr(step, "translate", None) is not None:
+                    s[:3, 3] = step.translate
+                xf = s @ xf
+            objects[f"s{k}"] = {"type": "cube", "to_world": mi.ScalarTransform4f((xf @ m).tolist()), "bsdf": mats[name]}
+    height = round(width / float(scene.image.aspect_ratio or 1))
+    definition = {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": scene.image.max_depth + 1},
+        "sensor": {
+            "type": "perspective", "fov": cam.vfov, "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.look_from), target=list(cam.look_at), up=list(cam.up)),
+            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": 4},
+        },
+        **objects,
+    }
+    scene_mi = mi.load_dict(definition)
+    mi.render(scene_mi, spp=4)  # compile before the clock starts
+    # Find the sample count that fills the time: a timed probe, then the full render.
+    t0 = time.perf_counter()
+    mi.render(scene_mi, spp=16, seed=1)
+    per_sample = (time.perf_counter() - t0) / 16
+    spp = max(1, int(seconds / per_sample))
+    t0 = time.perf_counter()
+    image = np.array(mi.render(scene_mi, spp=spp, seed=2))[..., :3]
+    return image, spp, time.perf_counter() - t0, variant
+
+
+def _rotation(axis, angle):
+    x, y, z = axis
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
+                     [y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s],
+                     [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)]])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenes", default="cornell_box,cornell_smoke,final_scene,simple_light")
+    parser.add_argument("--width", type=int, default=600)
+    parser.add_argument("--seconds", type=float, default=6.0)
+    parser.add_argument("--ref-spp", type=int, default=1024)
+    parser.add_argument("--mitsuba", action="store_true")
+    args = parser.parse_args(argv)
+    import numba
+
+    print(f"{numba.get_num_threads()} threads, {args.width} pixels wide, {args.seconds:g} s per integrator, "
+          f"references at {args.ref_spp} spp")
+    for stem in args.scenes.split(","):
+        graph = load_graph(stem, args.width)
+        ref = reference(stem, graph, args.width, args.ref_spp)
+        keep = ref.max(axis=2) <= 1.0  # leave out pixels that see a light (or a bright sky) directly
+        print(f"\n{stem} ({graph.image.width}x{graph.image.pixel_height}, {np.mean(~keep):.1%} of pixels see a light):")
+        print(f"  {'integrator':10} {'spp':>6} {'s':>6} {'Mrays/s':>8} {'s/spp':>7} {'RMSE':>8} {'noise':>7}  "
+              + "  ".join(f"spp,s to {100 * t:g}%" for t in TARGETS))
+        errors = {}
+        for integrator in ("path", "mis"):
+            result, noise = equal_time(graph, integrator, args.seconds)
+            stats, film = result.stats, result.film
+            rmse = error(film.mean(), ref, keep)
+            errors[integrator] = rmse
+            per = stats.seconds / max(1, film.samples)
+            need = "  ".join(f"{math.ceil(film.samples * (noise / t) ** 2):>7} {film.samples * (noise / t) ** 2 * per:>6.0f}"
+                             for t in TARGETS)
+            print(f"  {integrator:10} {film.samples:>6} {stats.seconds:>6.2f} {stats.rays_per_second / 1e6:>8.2f} "
+                  f"{per:>7.3f} {rmse:>8.4f} {100 * noise:>6.2f}%  {need}", flush=True)
+        print(f"  error at equal time, path / mis: {errors['path'] / errors['mis']:.1f}")
+        if args.mitsuba and stem == "cornell_box":
+            try:
+                image, spp, seconds, variant = mitsuba_cornell(graph.image.width, args.seconds)
+            except ImportError:
+                print("  mitsuba: not installed (pip install mitsuba)")
+                continue
+            rmse = error(image, ref, keep)
+            print(f"  mitsuba {variant}: {spp} spp in {seconds:.2f} s, RMSE {rmse:.4f}; "
+                  f"rt mis / mitsuba error: {errors['mis'] / rmse:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,109 @@
+"""Shadow rays: how much of the light at the far end of a segment reaches its start.
+
+A surface anywhere on the segment blocks it (0). Each constant-density medium it crosses
+attenuates it by exp(-density x length inside), the medium's transmittance, computed exactly
+from the boundary rather than drawn as a free-flight distance: a camera inside a medium and
+media inside media add their lengths alike. Order does not matter, so the trees are walked
+without sorting and the walk ends at the first surface met.
+"""
+
+import math
+
+from numba import njit
+
+from ..kernel_flags import INSTANCES, MEDIA
+from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
+from ..shapes import MEDIUM, PRIM_KIND
+from ..shapes.dispatch import hit_primitive
+from .simd import slab4
+from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT,
+                       TLAS_NEXT, at, inverse_direction, slab)
+from .vec import dot, length, xform_point, xform_vector
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def push_child(stack_i, sp, nodes_i, node, c, t):
+    """Push child c of `node` if the segment meets its box (t < inf); the new stack size."""
+    if t < INF:
+        stack_i[at(sp), 0] = nodes_i[at(node), NODE_CHILD + c]
+        stack_i[at(sp), 1] = nodes_i[at(node), NODE_COUNT + c]
+        return sp + 1
+    return sp
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmax, time, stack):
+    """Optical depth of the media of the wide tree at `root` along o + t d for t in (0, tmax), or
+    inf when a surface lies there. `stack` is intersect_tree's (its node column is reused)."""
+    _, stack_i, _ = stack
+    inv = inverse_direction(d)
+    inv_a = 1.0 / dot(d, d)
+    depth = 0.0
+    stack_i[0, 0], stack_i[0, 1] = root, 0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        code, count = stack_i[at(sp), 0], stack_i[at(sp), 1]
+        if count == 0:
+            # Every child the segment meets, in any order: one surface anywhere ends the walk.
+            t0, t1, t2, t3 = slab4(nodes_f, code, o, inv, 0.0, tmax)
+            sp = push_child(stack_i, sp, nodes_i, code, 0, t0)
+            sp = push_child(stack_i, sp, nodes_i, code, 1, t1)
+            sp = push_child(stack_i, sp, nodes_i, code, 2, t2)
+            sp = push_child(stack_i, sp, nodes_i, code, 3, t3)
+            continue
+        for prim in range(code, code + count):
+            kind = prims_i[at(prim), PRIM_KIND]
+            if MEDIA and kind == MEDIUM:
+                start = int(prims_f[prim, MEDIUM_FIRST_BOUNDARY])
+                enter, leave = medium_span(bnd_i, bnd_f, start, int(prims_f[prim, MEDIUM_BOUNDARIES]), o, d, time)
+                t0, t1 = max(enter, 0.0), min(leave, tmax)
+                if t0 < t1:
+                    depth += (t1 - t0) * length(d) / -prims_f[prim, MEDIUM_NEG_INV_DENSITY]
+            elif hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, 0.0, tmax, time) < INF:
+                return INF
+    return depth
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def transmittance(S, o, d, tmax, time, stack, tstack):
+    """The fraction of light carried from o + tmax d back to o: 0 if a surface lies between, else
+    exp(-optical depth of every medium crossed)."""
+    n_inst = S.inst_i.shape[0]
+    if n_inst == 0:
+        return 1.0
+    if not INSTANCES or (n_inst == 1 and S.inst_i[0, INST_UNTRANSFORMED] == 1):
+        depth = tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.inst_i[0, INST_ROOT],
+                           o, d, tmax, time, stack)
+        return math.exp(-depth) if depth < INF else 0.0
+    depth = 0.0
+    inv = inverse_direction(d)
+    if slab(S.tlas_f, 0, o, inv, 0.0, tmax) == INF:
+        return 1.0
+    tstack[0, 0] = 0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        node = int(tstack[sp, 0])
+        count = S.tlas_i[node, TLAS_COUNT]
+        if count > 0:
+            first = S.tlas_i[node, TLAS_NEXT]
+            for inst in range(first, first + count):
+                if S.inst_i[inst, INST_UNTRANSFORMED] == 1:
+                    oo, dd = o, d
+                else:
+                    oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+                    dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+                depth += tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.inst_i[inst, INST_ROOT],
+                                    oo, dd, tmax, time, stack)
+                if depth == INF:
+                    return 0.0
+            continue
+        near, far = node + 1, S.tlas_i[node, TLAS_NEXT]
+        if slab(S.tlas_f, near, o, inv, 0.0, tmax) < INF:
+            tstack[sp, 0] = near
+            sp += 1
+        if slab(S.tlas_f, far, o, inv, 0.0, tmax) < INF:
+            tstack[sp, 0] = far
+            sp += 1
+    return math.exp(-depth)

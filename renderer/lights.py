@@ -1,0 +1,424 @@
+"""Lights: the table of emitters, its flattening, and sampling a point on one from a shading point.
+
+Every primitive whose material is a diffuse light is a light, once per instance that places its
+tree: a row of `light_i` names the instance and the primitive. A light is chosen in proportion
+to its power (its area in the world times the luminance of its mean emission) by a binary
+search of the cumulative table `light_f.cdf`, so a scene of thousands of emitters costs one
+shadow ray per vertex, not thousands. Points are sampled in the tree's own space and carried
+into the world by the instance's map:
+
+- spheres seen from outside: a direction uniform in the cone they subtend (pdf in solid angle,
+  which a similarity preserves); from inside, or under a map that is not a similarity (an
+  ellipsoid), a point uniform on the surface;
+- quads, triangles, disks and boxes: a point uniform on the surface, whose density per world
+  area is the tree-space density times the map's area ratio at that normal.
+
+Emission is two-sided (the books' diffuse light), so the conversion to solid angle takes the
+absolute cosine at the light. `light_pdf` gives the density the sampler would have given a
+direction that BSDF sampling found, for the multiple-importance weights of the integrator.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .columns import Column, Layout
+from .kernels.rng import light_dim, uniform
+from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from .kernels.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
+from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
+from .shapes import BOX, DISK, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE
+from .shapes.boxes import BOX_HI, BOX_LO
+from .shapes.dispatch import surface
+from .shapes.planar import PLANAR_ALPHA, PLANAR_BETA, PLANAR_CORNER, PLANAR_NORMAL
+from .shapes.spheres import SPHERE_RADIUS, sphere_center
+from .textures import texture_value
+
+# How a light's points are drawn.
+LIGHT_AREA = 0  # uniform on the surface
+LIGHT_CONE = 1  # a sphere under a similarity: uniform in the cone it subtends where that exists
+
+LIGHT_I = Layout("light_i", "int32", [
+    Column("instance", 1, "row of inst_i that places the light's tree"),
+    Column("primitive", 1, "row of prims_i of the emitting primitive"),
+    Column("strategy", 1, "LIGHT_AREA or LIGHT_CONE"),
+])
+LIGHT_F = Layout("light_f", "float64", [
+    Column("cdf", 1, "probability of choosing this light or one before it (the last row is 1)"),
+    Column("pmf", 1, "probability of choosing this light: its share of the lights' power"),
+    Column("area", 1, "area in the tree's space (0 for a sphere, whose area moves with nothing)"),
+    Column("edge_u", 3, "quad, triangle, disk: the first edge (a disk's first radius), in the tree's space"),
+    Column("edge_v", 3, "the second edge"),
+])
+LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY = LIGHT_I.offsets("instance", "primitive", "strategy")
+LIGHT_CDF, LIGHT_PMF, LIGHT_AREA_COLUMN, LIGHT_EDGE_U, LIGHT_EDGE_V = LIGHT_F.offsets(
+    "cdf", "pmf", "area", "edge_u", "edge_v")
+
+# Below this squared sine of the cone's half-angle, 1 - cos is computed from its series:
+# the difference itself would have lost most of its digits.
+SMALL_CONE = 1e-4
+# Lights met at less than this |cosine| are skipped: they send next to nothing, and the solid
+# angle density would be huge and inexact.
+GRAZING = 1e-10
+
+
+# --- flattening -------------------------------------------------------------------------------
+
+
+def _edges(prims_f: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges u, v of planar rows, recovered from their (alpha, beta) dual vectors A and B:
+    u is perpendicular to B and the normal with A . u = 1, v perpendicular to A and the normal
+    with B . v = 1 (planar.py)."""
+    a = prims_f[rows, PLANAR_ALPHA:PLANAR_ALPHA + 3]
+    b = prims_f[rows, PLANAR_BETA:PLANAR_BETA + 3]
+    n = prims_f[rows, PLANAR_NORMAL:PLANAR_NORMAL + 3]
+    u = np.cross(b, n)
+    u /= np.einsum("ij,ij->i", u, a)[:, None]
+    v = np.cross(n, a)
+    v /= np.einsum("ij,ij->i", v, b)[:, None]
+    return u, v
+
+
+def _tree_area(kind: np.ndarray, prims_f: np.ndarray, rows: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Surface area in the tree's space of each row (spheres: 0, see LIGHT_F.area)."""
+    area = np.zeros(len(rows))
+    para = np.linalg.norm(np.cross(u, v), axis=1)
+    area = np.where(kind == QUAD, para, area)
+    area = np.where(kind == TRIANGLE, 0.5 * para, area)
+    area = np.where(kind == DISK, math.pi * para, area)
+    size = prims_f[rows, BOX_HI:BOX_HI + 3] - prims_f[rows, BOX_LO:BOX_LO + 3]
+    box = 2.0 * (size[:, 0] * size[:, 1] + size[:, 1] * size[:, 2] + size[:, 2] * size[:, 0])
+    return np.where(kind == BOX, box, area)
+
+
+def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
+    """The light tables of a scene without emitters."""
+    return {"light_i": LIGHT_I.array(0), "light_f": LIGHT_F.array(0), "inst_light": np.zeros(instances, np.int32),
+            "prim_light": np.full(prims, -1, np.int32)}
+
+
+def flatten(flat, prim_ranges) -> dict[str, np.ndarray]:
+    """The light tables of flat scene `flat`: `light_i`, `light_f`, `inst_light` (each
+    instance's first light row) and `prim_light` (an emitting primitive's rank among the
+    emitters of its tree, -1 for others): the light of a hit is inst_light + prim_light.
+    `prim_ranges[k]` is the (first, count) of the primitive rows of instance k's tree.
+    Power-proportional choice needs the mean emission, which `_powers` measures with the
+    kernels' own sampling."""
+    emitting = flat.mat_i[flat.prims_i[:, PRIM_MATERIAL], MAT_KIND] == DIFFUSE_LIGHT
+    emitters = np.flatnonzero(emitting)
+    inst_light = np.zeros(len(flat.inst_i), np.int32)
+    prim_light = np.full(len(flat.prims_i), -1, np.int32)
+    instances, prims = [], []
+    rows = 0
+    for k, (first, count) in enumerate(prim_ranges):
+        inst_light[k] = rows
+        lo, hi = np.searchsorted(emitters, (first, first + count))
+        prim_light[emitters[lo:hi]] = np.arange(hi - lo)
+        prims.append(emitters[lo:hi])
+        instances.append(np.full(hi - lo, k, np.int64))
+        rows += hi - lo
+    prim = np.concatenate(prims) if prims else np.zeros(0, np.int64)
+    inst = np.concatenate(instances) if instances else np.zeros(0, np.int64)
+    kind = flat.prims_i[prim, PRIM_KIND]
+    lin = flat.inst_f[inst, INST_WORLD_FROM_OBJECT:INST_WORLD_FROM_OBJECT + 12].reshape(-1, 3, 4)[:, :, :3]
+    gram = np.einsum("kij,kil->kjl", lin, lin)
+    scale2 = np.trace(gram, axis1=1, axis2=2) / 3.0
+    similar = np.all(np.abs(gram - scale2[:, None, None] * np.eye(3)) <= 1e-9 * scale2[:, None, None], axis=(1, 2))
+    sphere = (kind == SPHERE) | (kind == MOVING_SPHERE)
+    strategy = np.where(sphere & similar, LIGHT_CONE, LIGHT_AREA)
+    planar = (kind == QUAD) | (kind == TRIANGLE) | (kind == DISK)
+    u, v = np.zeros((len(prim), 3)), np.zeros((len(prim), 3))
+    u[planar], v[planar] = _edges(flat.prims_f, prim[planar])
+    area = _tree_area(kind, flat.prims_f, prim, u, v)
+    light_i = LIGHT_I.array(len(prim), instance=inst, primitive=prim, strategy=strategy)
+    light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v)
+    power = _powers(flat, light_i, light_f)
+    total = power.sum()
+    if not total > 0.0:  # no light sends anything: nothing to sample
+        return no_lights(len(flat.prims_i), len(flat.inst_i))
+    light_f[:, LIGHT_PMF] = power / total
+    cdf = np.cumsum(power) / total
+    cdf[-1] = 1.0
+    light_f[:, LIGHT_CDF] = cdf
+    return {"light_i": light_i, "light_f": light_f, "inst_light": inst_light, "prim_light": prim_light}
+
+
+def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:
+    """Each light's power up to a common factor: its world area times the luminance of its
+    emission averaged over 16 stratified points of its surface."""
+    out = np.zeros(len(light_i))
+    light_powers(flat.prims_i, flat.prims_f, flat.inst_i, flat.inst_f, flat.mat_i, flat.tex_i, flat.tex_f,
+                 flat.texels, flat.noise_perm, flat.noise_vec, light_i, light_f, out)
+    return out
+
+
+# --- the kernels ------------------------------------------------------------------------------
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def luminance(c):
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def frame_of(w):
+    """Two unit vectors completing unit w to an orthonormal frame (Duff et al. 2017)."""
+    sign = math.copysign(1.0, w[2])
+    a = -1.0 / (sign + w[2])
+    b = w[0] * w[1] * a
+    return (1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]), (b, sign + w[1] * w[1] * a, -w[1])
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def uniform_sphere(u1, u2):
+    z = 1.0 - 2.0 * u1
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u2
+    return (r * math.cos(phi), r * math.sin(phi), z)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def cone_one_minus_cos(sin2_max):
+    """1 - cos(theta_max) of a cone whose half-angle has squared sine sin2_max, without cancellation."""
+    if sin2_max < SMALL_CONE:
+        return 0.5 * sin2_max + 0.125 * sin2_max * sin2_max
+    return 1.0 - math.sqrt(max(0.0, 1.0 - sin2_max))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_cone(p, c, r, dist2, u1, u2):
+    """A point and outward normal on the sphere (c, r) seen from p outside it, whose direction from
+    p is uniform in the cone the sphere subtends; and that cone's solid angle density.
+
+    The direction makes angle theta with the axis, cos theta uniform in [cos theta_max, 1]; the
+    point is where it first meets the sphere, found from the angle alpha at the centre between
+    the axis and the point (law of sines in the triangle p, c, point) rather than by intersecting
+    a ray that may graze the sphere.
+    """
+    sin2_max = r * r / dist2
+    one_minus = cone_one_minus_cos(sin2_max)
+    # 1 - cos(theta) uniform in [0, 1 - cos(theta_max)], kept as a difference for small cones.
+    om = u1 * one_minus
+    cos_t = 1.0 - om
+    sin2_t = om * (2.0 - om)
+    sin_max = math.sqrt(sin2_max)
+    cos_a = sin2_t / sin_max + cos_t * math.sqrt(max(0.0, 1.0 - sin2_t / sin2_max))
+    cos_a = min(1.0, max(-1.0, cos_a))
+    sin_a = math.sqrt(max(0.0, 1.0 - cos_a * cos_a))
+    phi = 2.0 * math.pi * u2
+    axis = scale(sub(p, c), 1.0 / math.sqrt(dist2))  # from the centre towards p
+    e1, e2 = frame_of(axis)
+    ca, sa = sin_a * math.cos(phi), sin_a * math.sin(phi)
+    n = (ca * e1[0] + sa * e2[0] + cos_a * axis[0], ca * e1[1] + sa * e2[1] + cos_a * axis[1],
+         ca * e1[2] + sa * e2[2] + cos_a * axis[2])
+    return madd(c, n, r), n, 1.0 / (2.0 * math.pi * one_minus)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_surface(kind, prims_f, prim, light_f, light, time, u1, u2):
+    """A point uniform on the surface of primitive `prim` (tree space), its outward normal and
+    1 / area (the density per tree-space area)."""
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        c = sphere_center(kind, prims_f, prim, time)
+        r = prims_f[prim, SPHERE_RADIUS]
+        n = uniform_sphere(u1, u2)
+        return madd(c, n, r), n, 1.0 / (4.0 * math.pi * r * r)
+    if kind == BOX:
+        lo = (prims_f[prim, BOX_LO], prims_f[prim, BOX_LO + 1], prims_f[prim, BOX_LO + 2])
+        hi = (prims_f[prim, BOX_HI], prims_f[prim, BOX_HI + 1], prims_f[prim, BOX_HI + 2])
+        sx, sy, sz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
+        faces = (sy * sz, sz * sx, sx * sy)  # the area of a face across x, y and z
+        half = faces[0] + faces[1] + faces[2]
+        # u1 chooses the face (by area) and is reused, rescaled, as the first coordinate on it.
+        pick = u1 * 2.0 * half
+        side = 0
+        if pick >= half:
+            pick -= half
+            side = 1
+        axis = 0
+        while axis < 2 and pick >= faces[axis]:
+            pick -= faces[axis]
+            axis += 1
+        s = min(pick / faces[axis], 1.0) if faces[axis] > 0.0 else 0.5
+        sign = 1.0 if side == 1 else -1.0
+        if axis == 0:
+            x = (hi[0] if side == 1 else lo[0], lo[1] + s * sy, lo[2] + u2 * sz)
+            n = (sign, 0.0, 0.0)
+        elif axis == 1:
+            x = (lo[0] + u2 * sx, hi[1] if side == 1 else lo[1], lo[2] + s * sz)
+            n = (0.0, sign, 0.0)
+        else:
+            x = (lo[0] + s * sx, lo[1] + u2 * sy, hi[2] if side == 1 else lo[2])
+            n = (0.0, 0.0, sign)
+        return x, n, 1.0 / (2.0 * half)
+    q = (prims_f[prim, PLANAR_CORNER], prims_f[prim, PLANAR_CORNER + 1], prims_f[prim, PLANAR_CORNER + 2])
+    n = (prims_f[prim, PLANAR_NORMAL], prims_f[prim, PLANAR_NORMAL + 1], prims_f[prim, PLANAR_NORMAL + 2])
+    eu = (light_f[light, LIGHT_EDGE_U], light_f[light, LIGHT_EDGE_U + 1], light_f[light, LIGHT_EDGE_U + 2])
+    ev = (light_f[light, LIGHT_EDGE_V], light_f[light, LIGHT_EDGE_V + 1], light_f[light, LIGHT_EDGE_V + 2])
+    if kind == TRIANGLE:
+        su = math.sqrt(u1)
+        a, b = 1.0 - su, u2 * su
+    elif kind == DISK:
+        rr = math.sqrt(u1)
+        phi = 2.0 * math.pi * u2
+        a, b = rr * math.cos(phi), rr * math.sin(phi)
+    else:  # QUAD
+        a, b = u1, u2
+    return madd(madd(q, eu, a), ev, b), n, 1.0 / light_f[light, LIGHT_AREA_COLUMN]
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def area_ratio(inst_f, inst, n_world):
+    """Tree-space area per world area at a surface point of world normal n_world (unit): for the
+    map L from tree to world, |det L^-1| |L^T n|."""
+    m = INST_OBJECT_FROM_WORLD
+    det = (inst_f[inst, m] * (inst_f[inst, m + 5] * inst_f[inst, m + 10] - inst_f[inst, m + 6] * inst_f[inst, m + 9])
+           - inst_f[inst, m + 1] * (inst_f[inst, m + 4] * inst_f[inst, m + 10] - inst_f[inst, m + 6] * inst_f[inst, m + 8])
+           + inst_f[inst, m + 2] * (inst_f[inst, m + 4] * inst_f[inst, m + 9] - inst_f[inst, m + 5] * inst_f[inst, m + 8]))
+    w = INST_WORLD_FROM_OBJECT
+    # L^T n: column c of L dotted with n.
+    lt = (inst_f[inst, w] * n_world[0] + inst_f[inst, w + 4] * n_world[1] + inst_f[inst, w + 8] * n_world[2],
+          inst_f[inst, w + 1] * n_world[0] + inst_f[inst, w + 5] * n_world[1] + inst_f[inst, w + 9] * n_world[2],
+          inst_f[inst, w + 2] * n_world[0] + inst_f[inst, w + 6] * n_world[1] + inst_f[inst, w + 10] * n_world[2])
+    return abs(det) * math.sqrt(dot(lt, lt))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def emission(S, prim, x_tree, n_tree, x_world, time):
+    """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there)."""
+    mat = S.prims_i[prim, PRIM_MATERIAL]
+    kind = S.prims_i[prim, PRIM_KIND]
+    _, _, u, v = surface(kind, S.prims_f, prim, x_tree, neg(n_tree), 0.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
+    return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, x_world)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def choose_light(light_f, u):
+    """The light whose cdf interval holds u (binary search; lights of zero power are never chosen)."""
+    lo, hi = 0, light_f.shape[0] - 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if u < light_f[mid, LIGHT_CDF]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_light(S, p, time, key, bounce):
+    """A point on a light for shading point p (world): (ok, point, unit direction from p, distance,
+    solid angle density including the choice of light, emitted radiance). Not ok when the light
+    is met edge-on or at p itself."""
+    zero = (0.0, 0.0, 0.0)
+    light = choose_light(S.light_f, uniform(key, light_dim(bounce, 0)))
+    u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
+    inst = S.light_i[light, LIGHT_INSTANCE]
+    prim = S.light_i[light, LIGHT_PRIMITIVE]
+    kind = S.prims_i[prim, PRIM_KIND]
+    moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
+    p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+    cone = False
+    if S.light_i[light, LIGHT_STRATEGY] == LIGHT_CONE:
+        c = sphere_center(kind, S.prims_f, prim, time)
+        r = S.prims_f[prim, SPHERE_RADIUS]
+        rel = sub(p_tree, c)
+        dist2 = dot(rel, rel)
+        cone = dist2 > r * r * (1.0 + 1e-9)
+    if cone:
+        x_tree, n_tree, pdf = sample_cone(p_tree, c, r, dist2, u1, u2)
+    else:
+        x_tree, n_tree, pdf = sample_surface(kind, S.prims_f, prim, S.light_f, light, time, u1, u2)
+    if moved:
+        x = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, x_tree)
+        n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree))
+    else:
+        x, n = x_tree, n_tree
+    to = sub(x, p)
+    dist2_w = dot(to, to)
+    if not dist2_w > 0.0:
+        return False, x, zero, 0.0, 0.0, zero
+    dist = math.sqrt(dist2_w)
+    wi = scale(to, 1.0 / dist)
+    if not cone:
+        cos_l = abs(dot(n, wi))
+        if cos_l <= GRAZING:
+            return False, x, wi, dist, 0.0, zero
+        if moved:
+            pdf *= area_ratio(S.inst_f, inst, n)
+        pdf *= dist2_w / cos_l
+    pdf *= S.light_f[light, LIGHT_PMF]
+    return True, x, wi, dist, pdf, emission(S, prim, x_tree, n_tree, x, time)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def light_pdf(S, inst, prim, p, x, n, time):
+    """The density `sample_light` from shading point p gives the point x (normal n) of primitive
+    `prim` placed by instance `inst`, per solid angle at p: the weight a BSDF-sampled hit on
+    a light needs."""
+    if S.prim_light[prim] < 0:
+        return 0.0  # an emitter of no power: never sampled
+    light = S.inst_light[inst] + S.prim_light[prim]
+    to = sub(x, p)
+    dist2 = dot(to, to)
+    if not dist2 > 0.0:
+        return 0.0
+    pmf = S.light_f[light, LIGHT_PMF]
+    moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
+    kind = S.prims_i[prim, PRIM_KIND]
+    if S.light_i[light, LIGHT_STRATEGY] == LIGHT_CONE:
+        p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+        c = sphere_center(kind, S.prims_f, prim, time)
+        r = S.prims_f[prim, SPHERE_RADIUS]
+        rel = sub(p_tree, c)
+        d2 = dot(rel, rel)
+        if d2 > r * r * (1.0 + 1e-9):
+            return pmf / (2.0 * math.pi * cone_one_minus_cos(r * r / d2))
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        r = S.prims_f[prim, SPHERE_RADIUS]
+        per_area = 1.0 / (4.0 * math.pi * r * r)
+    elif kind == BOX:
+        lo, hi = BOX_LO, BOX_HI
+        sx = S.prims_f[prim, hi] - S.prims_f[prim, lo]
+        sy = S.prims_f[prim, hi + 1] - S.prims_f[prim, lo + 1]
+        sz = S.prims_f[prim, hi + 2] - S.prims_f[prim, lo + 2]
+        per_area = 1.0 / (2.0 * (sx * sy + sy * sz + sz * sx))
+    else:
+        per_area = 1.0 / S.light_f[light, LIGHT_AREA_COLUMN]
+    if moved:
+        per_area *= area_ratio(S.inst_f, inst, n)
+    cos_l = abs(dot(n, to)) / math.sqrt(dist2)
+    if cos_l <= GRAZING:
+        return math.inf
+    return pmf * per_area * dist2 / cos_l
+
+
+@njit(cache=True, error_model="numpy")
+def light_powers(prims_i, prims_f, inst_i, inst_f, mat_i, tex_i, tex_f, texels, noise_perm, noise_vec, light_i, light_f, out):
+    """out[l] = world area of light l times the luminance of its mean emission over 4x4 stratified points."""
+    for light in range(light_i.shape[0]):
+        inst = light_i[light, LIGHT_INSTANCE]
+        prim = light_i[light, LIGHT_PRIMITIVE]
+        kind = prims_i[prim, PRIM_KIND]
+        mat = prims_i[prim, PRIM_MATERIAL]
+        moved = inst_i[inst, INST_UNTRANSFORMED] != 1
+        total_l = 0.0
+        total_area = 0.0
+        for a in range(4):
+            for b in range(4):
+                x_tree, n_tree, per_area = sample_surface(kind, prims_f, prim, light_f, light, 0.0, (a + 0.5) / 4.0, (b + 0.5) / 4.0)
+                x, n = x_tree, n_tree
+                ratio = 1.0
+                if moved:
+                    x = xform_point(inst_f, inst, INST_WORLD_FROM_OBJECT, x_tree)
+                    n = unit(xform_normal(inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree))
+                    ratio = area_ratio(inst_f, inst, n)
+                _, _, u, v = surface(kind, prims_f, prim, x_tree, neg(n_tree), 0.0, 0.0, mat_i[mat, MAT_READS_UV] != 0)
+                e = texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, mat_i[mat, MAT_TEXTURE], u, v, x)
+                total_l += max(0.0, luminance(e))
+                total_area += 1.0 / (per_area * ratio)  # world area, as seen from this point's normal
+        out[light] = total_area / 16.0 * total_l / 16.0
+

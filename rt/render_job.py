@@ -38,11 +38,20 @@ class RenderOptions:
     resume: Optional[Path] = None
     explain: bool = False
     kernel: str = "auto"
+    overrides: tuple[str, ...] = ()  # --set KEY.PATH=VALUE, in order
+    syntax: Optional[str] = None  # --format: yaml or json
+
+    @property
+    def from_stdin(self) -> bool:
+        return str(self.scene) == "-"
 
     @property
     def out(self) -> Path:
-        """The PNG to write: --output, or the scene file's name with .png in the current folder."""
-        return self.output if self.output is not None else Path(self.scene.stem + ".png")
+        """The PNG to write: --output, or the scene file's name with .png in the current folder
+        (`stdin.png` for a scene read from standard input)."""
+        if self.output is not None:
+            return self.output
+        return Path(("stdin" if self.from_stdin else self.scene.stem) + ".png")
 
 
 @dataclass(frozen=True)
@@ -125,10 +134,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     from renderer.variants import features_of
     from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
-    from scenefmt.validation import load
+    from scenefmt.validation import load_source
 
     try:
-        loaded = load(opts.scene)
+        loaded = load_source(opts.scene, opts.overrides, opts.syntax)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
         check_memory(graph, loaded.document)  # --width changes the film's size
         flat = compile_scene(graph)

@@ -176,7 +176,7 @@ class _Resolver:
         peak, where = bounds.texture_peak(tex)
         if peak <= most:
             return
-        if self.doc is not None and where + ("color",) in self.doc.values:
+        if self.doc is not None and self.doc.written(where + ("color",)):
             where = where + ("color",)
         used = "" if where[: len(path)] == path else f" (it is used at {format_path(path)})"
         self.error(where, f"{what} must be at most {most:g} per channel, found {peak:g}{used}")
@@ -248,7 +248,7 @@ class _Resolver:
             self.error(path, f"image file {file!r}: {problem}")
             return None
         try:
-            resolved = (self.doc.base_dir / file).resolve()
+            resolved = (self.doc.base_dir_of(path) / file).resolve()
             exists = resolved.exists()
         except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
             reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"

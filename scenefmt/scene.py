@@ -256,6 +256,13 @@ class Scene(StrictModel):
 
     version: Literal[1] = Field(FORMAT_VERSION, description="Version of the scene format; this release reads version 1.")
     description: str = Field("", max_length=10_000, description="Free text about the scene.")
+    include: list[Annotated[str, Field(min_length=1, max_length=4096)]] = Field(
+        default_factory=list,
+        max_length=256,
+        description="Files (relative to this one) whose named `textures`, `materials`, `media`, `groups` and `shapes` "
+        "are merged into this scene; a name defined twice is an error. Included files may include others "
+        "(not themselves); a file included twice is read once.",
+    )
     camera: Camera = Field(default_factory=Camera, description="The camera.")
     image: Image = Field(default_factory=Image, description="Image size and sampling.")
     shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")

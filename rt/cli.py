@@ -159,7 +159,7 @@ def validate(
     raise typer.Exit(1 if failed else 0)
 
 
-@app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.pfm")
+@app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.exr")
 def render(
     scene: Path = typer.Argument(
         ..., help="Scene file (YAML or JSON) to render; - reads it from standard input (the image is then stdin.png unless -o says).",
@@ -171,7 +171,13 @@ def render(
         None, "--output", "-o", help="PNG file to write (default: the scene file's name with .png, in the current folder)."
     ),
     hdr: Optional[Path] = typer.Option(
-        None, "--hdr", help="Also write the linear, unclamped image as a .pfm file (portable float map)."
+        None, "--hdr",
+        help="Also write the linear, unclamped image: .exr (OpenEXR, float32 RGB; needs the openexr package) or .pfm "
+        "(portable float map).",
+    ),
+    exposure: Optional[float] = typer.Option(
+        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its gamma and clamping (the --hdr image is not changed).",
+        metavar="STOPS",
     ),
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
@@ -211,7 +217,7 @@ def render(
     opts = RenderOptions(
         scene=scene, output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
-        kernel=kernel, overrides=tuple(overrides), syntax=syntax.value if syntax else None,
+        kernel=kernel, overrides=tuple(overrides), exposure=exposure, syntax=syntax.value if syntax else None,
     )
     try:
         run(opts, started)

@@ -39,6 +39,7 @@ class RenderOptions:
     explain: bool = False
     kernel: str = "auto"
     overrides: tuple[str, ...] = ()  # --set KEY.PATH=VALUE, in order
+    exposure: Optional[float] = None  # --exposure: stops applied to the PNG only
     syntax: Optional[str] = None  # --format: yaml or json
 
     @property
@@ -118,9 +119,16 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     if opts.kernel not in KERNEL_CHOICES:
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
-    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".pfm",)), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
+    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".exr", ".pfm")), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
+    if opts.hdr is not None and opts.hdr.suffix.lower() == ".exr":
+        from scenefmt.hdr_files import EXR_MISSING, exr_available
+
+        if not exr_available():
+            raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
+    if opts.exposure is not None and not -30 <= opts.exposure <= 30:
+        raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
     from .outputs import output_problem  # every output is checked before rendering

@@ -311,3 +311,22 @@ def test_validate_reports_a_bad_set_argument_and_exits_1(tmp_path):
     (error,) = json.loads(result.stdout)["files"][0]["errors"]
     assert error["file"] == "--set image.width=wide"
     assert (error["line"], error["column"], error["path"]) == (1, 13, "image.width")
+
+
+@pytest.mark.slow
+def test_render_reads_stdin_applies_set_and_writes_openexr(tmp_path):
+    # One render through the whole program: the scene on standard input, a --set value, an EXR
+    # image texture (relative to the current folder) and the linear image written as EXR.
+    from renderer.film import write_exr
+    from scenefmt.hdr_files import read_hdr
+
+    write_exr(tmp_path / "tex.exr", np.full((2, 2, 3), 0.5))
+    scene = SMALL.replace("albedo: [0.6, 0.3, 0.2]", "albedo: {type: image, file: tex.exr}")
+    out = run_rt("render", "-", "--set", "image.width=16", "--spp", "2", "--hdr", "lin.exr", cwd=tmp_path, input=scene)
+    assert out.returncode == 0, out.stderr
+    assert "wrote stdin.png, lin.exr: 16x8, 2 spp" in out.stdout
+    linear = read_hdr(tmp_path / "lin.exr", 1000)
+    assert linear.shape == (8, 16, 3) and linear.max() > 0
+    bad = run_rt("render", "-", "--set", "image.width=0", cwd=tmp_path, input=scene)
+    assert bad.returncode == 1
+    assert "--set image.width=0:1:13: error: image.width: expected a number >= 1, found 0" in bad.stderr

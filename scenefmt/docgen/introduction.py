@@ -61,6 +61,16 @@ shapes:
   (YAML or JSON, detected from the first character, or given by `--format yaml|json`); its
   includes and image files are relative to the current folder.
 
+**What the JSON Schema checks, and what only `rt validate` can.** The schema in `schemas/`
+(for editors) holds every rule JSON Schema can express: types, ranges, whole numbers, required
+keys, unknown keys, a `type` that selects one member of each union (so an editor names the
+wrong key, not "not valid under any of the given schemas"), a sphere, moving sphere or box
+needing a `material` or an `interior`, `aperture` against a positive `defocus_angle`, `height`
+against `aspect_ratio`, no zero vector as a disk's normal, a rotation axis or `up`, no zero
+scale factor. `rt validate` also checks:
+
+{beyond}
+
 In the tables below, *Default* is the value a key takes when it is left out; **required** keys
 have none. A `type` key selects the kind of a definition and must be given (except on a group).
 """

@@ -121,6 +121,14 @@ def write_pfm(path: Path, linear: np.ndarray) -> None:
     _atomic_write(path, lambda fh: (fh.write(header), fh.write(data.tobytes())))
 
 
+def write_exr(path: Path, linear: np.ndarray) -> None:
+    """OpenEXR: linear RGB float32, ZIP-compressed scanlines (needs the optional `openexr` package)."""
+    from scenefmt.hdr_files import exr_bytes
+
+    data = exr_bytes(linear)  # encoded in memory first: a failure leaves no file behind
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
 def read_pfm(path: Path) -> np.ndarray:
     """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom)."""
     raw = Path(path).read_bytes()
@@ -134,14 +142,16 @@ def read_pfm(path: Path) -> np.ndarray:
 
 
 def write_image(path: Path, linear: np.ndarray) -> None:
-    """PNG or PFM by the file's suffix."""
+    """PNG, PFM or OpenEXR by the file's suffix."""
     suffix = Path(path).suffix.lower()
     if suffix == ".pfm":
         write_pfm(path, linear)
+    elif suffix == ".exr":
+        write_exr(path, linear)
     elif suffix == ".png":
         write_png(path, linear)
     else:
-        raise ValueError(f"unsupported image format {suffix!r}: use .png or .pfm")
+        raise ValueError(f"unsupported image format {suffix!r}: use .png, .pfm or .exr")
 
 
 @dataclass

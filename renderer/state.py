@@ -149,7 +149,7 @@ def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES)
         raise StateError(f"{where}: {exc}") from None
     try:
         archive = zipfile.ZipFile(io.BytesIO(raw))
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError) as exc:
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError, ValueError) as exc:
         raise StateError(f"{where}: not a saved render state (not a zip archive: {exc})") from None
     with archive:
         members = {info.filename: info for info in archive.infolist()}

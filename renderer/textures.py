@@ -63,6 +63,9 @@ def srgb_to_linear(values: np.ndarray) -> np.ndarray:
 def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
     """An (h, w, 3) float32 array of linear RGB, row 0 at the top of the image.
 
+    OpenEXR and PFM files (by suffix) are read as float RGB, linear as stored; other images
+    through Pillow, as below.
+
     Memory: the decoded image, its 8-bit RGB form (3 bytes a pixel) and the float32 texels
     (12 bytes a pixel), made by looking each 8-bit value up in a 256-entry table; no float64
     copy of the image is ever made (scenefmt.bounds.TEXTURE_BYTES_PER_PIXEL counts this).
@@ -73,6 +76,13 @@ def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
 
     from scenefmt.files import FileProblem, open_regular_file
     from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
+    from scenefmt.hdr_files import HdrProblem, is_hdr, read_hdr
+
+    if is_hdr(path):  # float RGB, linear as stored: `colorspace` does not apply
+        try:
+            return read_hdr(path, MAX_TEXTURE_PIXELS)
+        except HdrProblem as exc:
+            raise ValueError(f"{path}: {exc}") from None
 
     try:
         with open_regular_file(path) as fh, Image.open(fh) as img:

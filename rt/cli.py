@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import List, Optional
 
@@ -52,36 +53,93 @@ def _summary_lines(loaded) -> list[str]:
     return lines
 
 
+_SET_OPTION = typer.Option(
+    [], "--set", metavar="KEY.PATH=VALUE",
+    help="Change a value of the scene, checked like the file's (repeatable; a later one wins): "
+    "--set image.samples_per_pixel=64 --set materials.glass.ior=1.33 --set 'camera.look_from=[0, 1, 5]'.",
+)
+
+
+class Syntax(str, Enum):
+    """The two syntaxes of a scene file, for --format."""
+
+    yaml = "yaml"
+    json = "json"
+
+
+_FORMAT_OPTION = typer.Option(
+    None, "--format",
+    help="The syntax of the scene (default: from the file's suffix, or detected from its first character).",
+)
+
+
+def _check_stdin_use(files) -> None:
+    if sum(str(f) == "-" for f in files) > 1:
+        typer.echo("error: standard input (-) can be read only once", err=True)
+        raise typer.Exit(2)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        from scenefmt.scene import FORMAT_VERSION
+
+        try:
+            number = version("rt-render")
+        except PackageNotFoundError:  # run from a checkout that is not installed
+            number = "unknown (not installed)"
+        typer.echo(f"rt {number} (scene format version {FORMAT_VERSION}, Python {sys.version.split()[0]})")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def main(
+    version: bool = typer.Option(
+        False, "--version", callback=_version, is_eager=True, help="Print the version of rt and of the scene format, and exit."
+    ),
+) -> None:
+    """Render declarative YAML/JSON scene files with a physically based path tracer."""
+
+
 @app.command(
-    epilog="Example: rt validate scenes/cornell_box.yaml scenes/quads.json --json",
+    epilog="Example: rt validate scenes/cornell_box.yaml scenes/quads.json --json; "
+    "rt validate scene.yaml --set image.width=1920",
 )
 def validate(
-    files: List[Path] = typer.Argument(..., help="Scene files (YAML or JSON) to check.", show_default=False),
+    files: List[Path] = typer.Argument(
+        ..., help="Scene files (YAML or JSON) to check; - reads one from standard input.", show_default=False
+    ),
+    overrides: List[str] = _SET_OPTION,
+    syntax: Optional[Syntax] = _FORMAT_OPTION,
     as_json: bool = typer.Option(False, "--json", help="Print machine-readable results (one JSON document)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="Print only errors."),
 ) -> None:
     """Check scene files and summarise each valid one; exit 1 if any is invalid."""
     from scenefmt.diagnostics import SceneError
     from scenefmt.effects import summarize
-    from scenefmt.validation import load
+    from scenefmt.loading import STDIN_NAME
+    from scenefmt.validation import load_source
 
+    _check_stdin_use(files)
     results = []
     failed = False
     for path in files:
+        shown = STDIN_NAME if str(path) == "-" else str(path)
         try:
-            loaded = load(path)
+            loaded = load_source(path, overrides, syntax.value if syntax else None)
         except SceneError as exc:
             failed = True
-            results.append({"file": str(path), "valid": False, "errors": [d.to_json() for d in exc.diagnostics], "warnings": []})
+            results.append({"file": shown, "valid": False, "errors": [d.to_json() for d in exc.diagnostics], "warnings": []})
             if not as_json:
                 for diag in exc.diagnostics:
                     typer.echo(str(diag), err=True)
                 count = len(exc.diagnostics)
-                typer.echo(f"{path}: invalid ({count} error{'s' if count != 1 else ''})", err=True)
+                typer.echo(f"{shown}: invalid ({count} error{'s' if count != 1 else ''})", err=True)
             continue
         results.append(
             {
-                "file": str(path),
+                "file": shown,
                 "valid": True,
                 "errors": [],
                 "warnings": [d.to_json() for d in loaded.warnings],
@@ -93,7 +151,7 @@ def validate(
             for diag in loaded.warnings:
                 typer.echo(str(diag), err=True)
             if not quiet:
-                typer.echo(f"{path}: valid")
+                typer.echo(f"{shown}: valid")
                 for line in _summary_lines(loaded):
                     typer.echo(line)
     if as_json:
@@ -101,14 +159,25 @@ def validate(
     raise typer.Exit(1 if failed else 0)
 
 
-@app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.pfm")
+@app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.exr")
 def render(
-    scene: Path = typer.Argument(..., help="Scene file (YAML or JSON) to render.", show_default=False),
+    scene: Path = typer.Argument(
+        ..., help="Scene file (YAML or JSON) to render; - reads it from standard input (the image is then stdin.png unless -o says).",
+        show_default=False
+    ),
+    overrides: List[str] = _SET_OPTION,
+    syntax: Optional[Syntax] = _FORMAT_OPTION,
     output: Optional[Path] = typer.Option(
         None, "--output", "-o", help="PNG file to write (default: the scene file's name with .png, in the current folder)."
     ),
     hdr: Optional[Path] = typer.Option(
-        None, "--hdr", help="Also write the linear, unclamped image as a .pfm file (portable float map)."
+        None, "--hdr",
+        help="Also write the linear, unclamped image: .exr (OpenEXR, float32 RGB; needs the openexr package) or .pfm "
+        "(portable float map).",
+    ),
+    exposure: Optional[float] = typer.Option(
+        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its gamma and clamping (the --hdr image is not changed).",
+        metavar="STOPS",
     ),
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
@@ -153,7 +222,8 @@ def render(
     opts = RenderOptions(
         scene=scene, output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
-        kernel=kernel, integrator=integrator,
+        kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
+        syntax=syntax.value if syntax else None,
     )
     try:
         run(opts, started)

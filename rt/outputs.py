@@ -109,7 +109,8 @@ def write_outputs(
     steps = []
     if opts.save_state is not None:
         steps.append((opts.save_state, lambda: save_state(opts.save_state, film, key)))
-    steps.append((opts.out, lambda: write_image(opts.out, image)))
+    exposed = image if not opts.exposure else image * 2.0 ** opts.exposure  # the PNG only; --hdr stays as rendered
+    steps.append((opts.out, lambda: write_image(opts.out, exposed)))
     if opts.hdr is not None:
         steps.append((opts.hdr, lambda: write_image(opts.hdr, image)))
     if opts.noise_map is not None:
@@ -120,7 +121,7 @@ def write_outputs(
         except (OSError, ValueError) as exc:
             reason = describe_os_error(exc) if isinstance(exc, OSError) else str(exc)
             saved_state = opts.save_state is not None and path != opts.save_state
-            rescued = [] if saved_state else rescue(film, key, Path(str(opts.scene)).stem)
+            rescued = [] if saved_state else rescue(film, key, "stdin" if opts.from_stdin else Path(str(opts.scene)).stem)
             if saved_state:
                 where = f"the samples are saved in {opts.save_state} (continue with --resume)"
             elif rescued:

@@ -39,11 +39,21 @@ class RenderOptions:
     explain: bool = False
     kernel: str = "auto"
     integrator: Optional[str] = None
+    overrides: tuple[str, ...] = ()  # --set KEY.PATH=VALUE, in order
+    exposure: Optional[float] = None  # --exposure: stops applied to the PNG only
+    syntax: Optional[str] = None  # --format: yaml or json
+
+    @property
+    def from_stdin(self) -> bool:
+        return str(self.scene) == "-"
 
     @property
     def out(self) -> Path:
-        """The PNG to write: --output, or the scene file's name with .png in the current folder."""
-        return self.output if self.output is not None else Path(self.scene.stem + ".png")
+        """The PNG to write: --output, or the scene file's name with .png in the current folder
+        (`stdin.png` for a scene read from standard input)."""
+        if self.output is not None:
+            return self.output
+        return Path(("stdin" if self.from_stdin else self.scene.stem) + ".png")
 
 
 @dataclass(frozen=True)
@@ -112,11 +122,18 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
     if opts.integrator is not None and opts.integrator not in ("mis", "path"):
         raise fail(f"error: --integrator {opts.integrator!r}: expected mis or path")
-    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".pfm",)), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
+    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".exr", ".pfm")), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
+    if opts.hdr is not None and opts.hdr.suffix.lower() == ".exr":
+        from scenefmt.hdr_files import EXR_MISSING, exr_available
+
+        if not exr_available():
+            raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
+    if opts.exposure is not None and not -30 <= opts.exposure <= 30:
+        raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     from .outputs import output_problem  # every output is checked before rendering
 
     problem = output_problem(opts)
@@ -128,10 +145,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     from renderer.variants import features_of
     from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
-    from scenefmt.validation import load
+    from scenefmt.validation import load_source
 
     try:
-        loaded = load(opts.scene)
+        loaded = load_source(opts.scene, opts.overrides, opts.syntax)
         graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
         if opts.integrator is not None:
             graph = with_integrator(graph, opts.integrator)

@@ -51,6 +51,9 @@ MEMORY_SHARE = 0.75
 # rows while flattening, then numpy rows and tree nodes.
 FILM_BYTES_PER_PIXEL = 6 * 3 * 8
 TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
+# A float image (.exr, .pfm): the file's bytes (at most 12 a pixel uncompressed), the decoded
+# float32 pixels, a contiguous copy, and the joined texels.
+HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
 
@@ -274,8 +277,12 @@ def _image_pixels(path) -> int:
     from PIL import Image
 
     from .files import open_regular_file
+    from .hdr_files import hdr_size, is_hdr
 
     try:
+        if is_hdr(path):
+            width, height = hdr_size(path)
+            return width * height
         with warnings.catch_warnings(), open_regular_file(path) as fh:
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # we say more, below
             with Image.open(fh) as img:
@@ -296,7 +303,8 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     biggest = (0, ())
     for node in graph.textures:
         if node.image_path is not None:
-            n = _image_pixels(node.image_path) * TEXTURE_BYTES_PER_PIXEL
+            per_pixel = HDR_TEXTURE_BYTES_PER_PIXEL if node.image_peak is not None else TEXTURE_BYTES_PER_PIXEL
+            n = _image_pixels(node.image_path) * per_pixel
             est.textures += n
             if n > biggest[0]:
                 biggest = (n, node.path + ("file",))
@@ -358,7 +366,9 @@ def texture_peak(node) -> tuple[float, tuple]:
         return max(peaks, key=lambda p: p[0]) if peaks else (0.0, node.path)
     if m.type in ("solid", "noise"):
         return max(m.color), node.path
-    return 1.0, node.path  # an image: 8-bit values, at most 1 in either colour space
+    if node.image_peak is not None:  # a float image (.exr, .pfm), read by the graph
+        return node.image_peak, node.path
+    return 1.0, node.path  # an 8-bit image: at most 1 in either colour space
 
 
 def check_memory(graph, document=None) -> MemoryEstimate:

@@ -108,3 +108,24 @@ def read_regular_file(path, limit: int) -> bytes:
         raise FileProblem(f"cannot read the file: {describe_os_error(exc)}") from None
     finally:
         os.close(fd)
+
+
+def read_stream(stream, limit: int) -> bytes:
+    """At most `limit` bytes from a binary stream (standard input); FileProblem if it holds more.
+
+    A stream has no size to check first: it is read in chunks and refused as soon as it passes
+    the limit, so `/dev/zero` or an endless pipe costs at most `limit` bytes of memory."""
+    chunks = []
+    size = 0
+    try:
+        while size <= limit:
+            chunk = stream.read(min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise FileProblem(f"cannot read: {describe_os_error(exc)}") from None
+    if size > limit:
+        raise FileProblem(f"the input is larger than the {limit:,} bytes allowed")
+    return b"".join(chunks)

@@ -17,6 +17,7 @@ from . import affine, bounds
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
 from .files import FileProblem, describe_os_error, open_regular_file, path_problem
+from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
@@ -36,6 +37,7 @@ class TextureNode:
     path: tuple
     inputs: dict[str, "TextureNode"] = field(default_factory=dict)
     image_path: Optional[Path] = None  # resolved file of an image texture
+    image_peak: Optional[float] = None  # the largest value of a float (.exr, .pfm) image; 8-bit ones peak at 1
 
     @property
     def kind(self) -> str:
@@ -127,6 +129,15 @@ def _image_problem(path: Path) -> Optional[str]:
     """Why `path` cannot serve as an image texture, or None. Reads only the file's header."""
     from PIL import Image, UnidentifiedImageError
 
+    if is_hdr(path):
+        try:
+            width, height = hdr_size(path)
+        except HdrProblem as exc:
+            return str(exc)
+        if width * height > MAX_TEXTURE_PIXELS:
+            return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
+        return None
+
     try:
         with warnings.catch_warnings(), open_regular_file(path) as fh:
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the memory estimate says more
@@ -176,7 +187,7 @@ class _Resolver:
         peak, where = bounds.texture_peak(tex)
         if peak <= most:
             return
-        if self.doc is not None and where + ("color",) in self.doc.values:
+        if self.doc is not None and self.doc.written(where + ("color",)):
             where = where + ("color",)
         used = "" if where[: len(path)] == path else f" (it is used at {format_path(path)})"
         self.error(where, f"{what} must be at most {most:g} per channel, found {peak:g}{used}")
@@ -237,6 +248,14 @@ class _Resolver:
                 node.inputs[slot] = child
         elif isinstance(model, ImageTexture):
             node.image_path = self.image_file(model.file, path + ("file",))
+            if node.image_path is not None and is_hdr(node.image_path):
+                # A float image may hold any value: read it, so its colours are checked as a reflectance or
+                # radiance where it is used (and its values are finite and not negative).
+                try:
+                    node.image_peak = float(read_hdr(node.image_path, MAX_TEXTURE_PIXELS).max(initial=0.0))
+                except HdrProblem as exc:
+                    self.error(path + ("file",), f"image file '{model.file}' {exc}")
+                    node.image_path = None
         self.all_textures.append(node)
         return node
 
@@ -248,7 +267,7 @@ class _Resolver:
             self.error(path, f"image file {file!r}: {problem}")
             return None
         try:
-            resolved = (self.doc.base_dir / file).resolve()
+            resolved = (self.doc.base_dir_of(path) / file).resolve()
             exists = resolved.exists()
         except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
             reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"

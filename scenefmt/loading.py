@@ -28,11 +28,14 @@ from yaml.resolver import BaseResolver
 from yaml.scanner import Scanner
 
 from .diagnostics import Diagnostic, SceneError
-from .files import FileProblem, read_regular_file
+from .files import FileProblem, read_regular_file, read_stream
 
 MAX_FILE_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 64
 MAX_NODES = 5_000_000
+# Values that aliases add by repeating their anchors: reuse (a material, a transform) adds a few
+# each time; a "billion laughs" adds millions, which a plain file of the same size could not.
+MAX_ALIASED = 200_000
 # No field takes an integer near this long; longer ones are refused before Python converts them
 # (which it refuses itself past 4300 digits, and which takes quadratic time before that).
 MAX_INTEGER_DIGITS = 400
@@ -42,7 +45,12 @@ Position = tuple[int, int]  # 1-based line, 1-based column
 
 @dataclass
 class SourceDocument:
-    """A parsed scene file: its plain data and where each value and key sits in the text."""
+    """A parsed scene file: its plain data and where each value and key sits in the text.
+
+    A composed scene (`include:` files merged in, `--set` values applied) is one document whose
+    `data` holds everything, and whose `origins` say which parts were read from another document:
+    a diagnostic about such a part is placed in the file (or `--set` argument) it was written in.
+    """
 
     file: str
     data: Any
@@ -52,10 +60,23 @@ class SourceDocument:
     # Problems that leave the data well defined (a duplicate key keeps its first value), reported
     # together with the schema errors instead of stopping the load.
     problems: list[Diagnostic] = field(default_factory=list)
+    # Key path here -> (the document that part was read from, its key path there).
+    origins: dict[tuple, tuple["SourceDocument", tuple]] = field(default_factory=dict)
+    # Appended to every diagnostic placed in this document: " (included from main.yaml:3:5)".
+    note: str = ""
 
-    def position(self, path: tuple, of_key: bool = False) -> Position:
-        """Where `path` is written; for a missing path, where its nearest written parent is."""
+    def locate(self, path: tuple) -> tuple["SourceDocument", tuple]:
+        """The document `path` was written in, and its key path there."""
         path = tuple(path)
+        if self.origins:
+            for k in range(len(path), -1, -1):
+                origin = self.origins.get(path[:k])
+                if origin is not None:
+                    doc, there = origin
+                    return doc.locate(there + path[k:])
+        return self, path
+
+    def _own_position(self, path: tuple, of_key: bool) -> Position:
         if of_key and path in self.keys:
             return self.keys[path]
         while path:
@@ -64,9 +85,24 @@ class SourceDocument:
             path = path[:-1]
         return self.values.get((), (1, 1))
 
+    def position(self, path: tuple, of_key: bool = False) -> Position:
+        """Where `path` is written; for a missing path, where its nearest written parent is."""
+        doc, there = self.locate(path)
+        return doc._own_position(there, of_key)
+
+    def written(self, path: tuple) -> bool:
+        """Whether `path` itself is written (not only a parent of it)."""
+        doc, there = self.locate(path)
+        return there in doc.values
+
+    def base_dir_of(self, path: tuple) -> Path:
+        """The folder relative file names at `path` are resolved from: that of the file it is written in."""
+        return self.locate(path)[0].base_dir
+
     def diagnostic(self, path: tuple, message: str, of_key: bool = False, severity: str = "error") -> Diagnostic:
-        line, col = self.position(path, of_key)
-        return Diagnostic(self.file, line, col, tuple(path), message, severity)
+        doc, there = self.locate(path)
+        line, col = doc._own_position(there, of_key)
+        return Diagnostic(doc.file, line, col, tuple(there), message + doc.note, severity)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -136,6 +172,7 @@ def _prescan_yaml(text: str, file: str) -> None:
     """Bound nesting depth and the node count after alias expansion, from the event stream alone."""
     depth = 0
     total = 0  # values so far, aliases counted at their expanded size
+    aliased = 0  # of those, the values the aliases added
     sizes: dict[str, int] = {}
     heights: dict[str, int] = {}  # levels of nesting inside each anchored node (a scalar: 0)
     stack: list[list] = [[0, None, 0]]  # [node count, anchor, levels of nesting] per open collection
@@ -180,6 +217,13 @@ def _prescan_yaml(text: str, file: str) -> None:
                 stack[-1][2] = max(stack[-1][2], 1 + height)
                 stack[-1][0] += size
                 total += size
+                aliased += size
+                if aliased > MAX_ALIASED:
+                    raise SceneError([Diagnostic(
+                        file, *_mark_position(event.start_mark), (),
+                        f"the aliases expand to more than {MAX_ALIASED:,} values (at *{event.anchor}); "
+                        "refusing to load it (anchors are for reuse, not for multiplying data)",
+                    )])
             else:
                 continue
             # A closed collection's count moves into its parent's, so `total` is the sum over the
@@ -280,6 +324,36 @@ class _YamlConverter:
         return text
 
 
+_OPENERS = {"[": "]", "{": "}", '"': '"', "'": "'"}
+
+
+def _yaml_syntax_error(exc: yaml.MarkedYAMLError, text: str, file: str) -> Diagnostic:
+    """A YAML syntax error, placed where the mistake most likely is.
+
+    An unclosed bracket or quote is noticed only where the parser runs into the next thing it
+    cannot fit in, often a line or more later; the diagnostic then points at the opening bracket
+    or quote (the parser's context mark) and says where the parser stopped."""
+    mark = exc.problem_mark or exc.context_mark
+    what = exc.problem or "invalid YAML"
+    context = exc.context or ""
+    if exc.context_mark is not None and exc.problem_mark is not None and context.startswith(
+        ("while parsing a flow", "while scanning a quoted scalar")
+    ):
+        line, col = _mark_position(exc.context_mark)
+        lines = text.splitlines()
+        opener = lines[line - 1][col - 1] if line <= len(lines) and col <= len(lines[line - 1]) else ""
+        if opener in _OPENERS:
+            stop_line, stop_col = _mark_position(exc.problem_mark)
+            return Diagnostic(
+                file, line, col, (),
+                f"YAML syntax error: this {opener!r} is never closed by a {_OPENERS[opener]!r} "
+                f"({what} at line {stop_line}, column {stop_col})",
+            )
+    if context:
+        what = f"{what} ({context})"
+    return Diagnostic(file, *_mark_position(mark), (), f"YAML syntax error: {what}")
+
+
 def parse_yaml(text: str, file: str) -> SourceDocument:
     doc = SourceDocument(file=file, data=None)
     try:
@@ -290,11 +364,7 @@ def parse_yaml(text: str, file: str) -> SourceDocument:
         finally:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        what = exc.problem or "invalid YAML"
-        if exc.context:
-            what = f"{what} ({exc.context})"
-        raise SceneError([Diagnostic(file, *_mark_position(mark), (), f"YAML syntax error: {what}")]) from None
+        raise SceneError([_yaml_syntax_error(exc, text, file)]) from None
     except yaml.YAMLError as exc:
         raise SceneError([Diagnostic(file, 1, 1, (), f"YAML error: {exc}")]) from None
     if root is None:
@@ -475,26 +545,45 @@ def parse_text(text: str, file: str = "<string>", syntax: str = "yaml", base_dir
     return doc
 
 
-def parse_file(path: str | Path) -> SourceDocument:
-    """Read and parse a scene file; raises `SceneError` naming the file on any problem.
-
-    Only a regular file is read (not a device, FIFO or directory, even through a symlink), and
-    never more than `MAX_FILE_BYTES` of it (see `scenefmt.files`).
-    """
-    name = os.fsdecode(path) if isinstance(path, bytes) else str(path)
-    try:
-        raw = read_regular_file(path, MAX_FILE_BYTES)
-    except FileProblem as exc:
-        raise SceneError([Diagnostic(name, 1, 1, (), str(exc))]) from None
-    path = Path(path)
+def parse_bytes(raw: bytes, file: str, syntax: str | None = None, base_dir: Path | None = None) -> SourceDocument:
+    """Parse the bytes of a scene (UTF-8, YAML or JSON: `syntax`, or detected); raises `SceneError`."""
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
-        raise SceneError([Diagnostic(name, line, col, (), "the file is not valid UTF-8 text")]) from None
+        raise SceneError([Diagnostic(file, line, col, (), "the file is not valid UTF-8 text")]) from None
+    return parse_text(text, file, syntax or syntax_of(Path(file), text), base_dir=base_dir)
+
+
+def parse_file(path: str | Path, syntax: str | None = None, limit: int = MAX_FILE_BYTES) -> SourceDocument:
+    """Read and parse a scene file; raises `SceneError` naming the file on any problem.
+
+    Only a regular file is read (not a device, FIFO or directory, even through a symlink), and
+    never more than `limit` bytes of it (see `scenefmt.files`). `syntax` ("yaml" or "json")
+    overrides the detection by suffix and first character.
+    """
+    name = os.fsdecode(path) if isinstance(path, bytes) else str(path)
+    try:
+        raw = read_regular_file(path, limit)
+    except FileProblem as exc:
+        raise SceneError([Diagnostic(name, 1, 1, (), str(exc))]) from None
+    path = Path(path)
     try:
         base_dir = path.resolve().parent
     except (OSError, RuntimeError):  # the file was read, so this is a race; keep its folder as named
         base_dir = Path(os.path.abspath(path)).parent
-    return parse_text(text, name, syntax_of(path, text), base_dir=base_dir)
+    return parse_bytes(raw, name, syntax, base_dir)
+
+
+STDIN_NAME = "<stdin>"
+
+
+def parse_stream(stream, file: str = STDIN_NAME, syntax: str | None = None) -> SourceDocument:
+    """Read a scene from a binary stream (standard input), at most `MAX_FILE_BYTES` of it, and parse
+    it; relative paths in it resolve from the current folder."""
+    try:
+        raw = read_stream(stream, MAX_FILE_BYTES)
+    except FileProblem as exc:
+        raise SceneError([Diagnostic(file, 1, 1, (), str(exc))]) from None
+    return parse_bytes(raw, file, syntax, Path.cwd())

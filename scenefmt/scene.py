@@ -6,7 +6,7 @@ import math
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import AfterValidator, Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import AfterValidator, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import (
     field_error,
@@ -46,9 +46,26 @@ class Camera(StrictModel):
     ```
     """
 
+    # For the JSON Schema: not both a positive aperture and a positive defocus_angle (`_well_posed`).
+    model_config = ConfigDict(
+        json_schema_extra={
+            "not": {
+                "required": ["aperture", "defocus_angle"],
+                "properties": {
+                    "aperture": {"type": "number", "exclusiveMinimum": 0},
+                    "defocus_angle": {"type": "number", "exclusiveMinimum": 0},
+                },
+            }
+        }
+    )
+
     look_from: Vec3 = Field((0.0, 0.0, 0.0), description="Position of the camera.")
     look_at: Vec3 = Field((0.0, 0.0, -1.0), description="Point the camera looks at.")
-    up: Vec3 = Field((0.0, 1.0, 0.0), description="Which way is up; must not be parallel to the view direction.")
+    up: Vec3 = Field(
+        (0.0, 1.0, 0.0),
+        description="Which way is up; must not be parallel to the view direction.",
+        json_schema_extra={"not": {"const": [0, 0, 0]}},
+    )
     vfov: Number = Field(90.0, gt=0, lt=180, description="Vertical field of view, in degrees.")
     defocus_angle: Number = Field(
         0.0, ge=0, lt=180, description="Cone angle of rays through a pixel, in degrees; 0 is a pinhole (no defocus blur)."
@@ -104,6 +121,16 @@ class Image(StrictModel):
     seed: 7
     ```
     """
+
+    # For the JSON Schema: not both a height and an aspect_ratio (`_one_of_height_or_ratio`).
+    model_config = ConfigDict(
+        json_schema_extra={
+            "not": {
+                "required": ["height", "aspect_ratio"],
+                "properties": {"height": {"not": {"type": "null"}}, "aspect_ratio": {"not": {"type": "null"}}},
+            }
+        }
+    )
 
     width: int = Field(100, strict=True, ge=1, le=MAX_IMAGE_SIDE, description="Width in pixels.")
     height: Optional[int] = Field(
@@ -262,6 +289,13 @@ class Scene(StrictModel):
 
     version: Literal[1] = Field(FORMAT_VERSION, description="Version of the scene format; this release reads version 1.")
     description: str = Field("", max_length=10_000, description="Free text about the scene.")
+    include: list[Annotated[str, Field(min_length=1, max_length=4096)]] = Field(
+        default_factory=list,
+        max_length=256,
+        description="Files (relative to this one) whose named `textures`, `materials`, `media`, `groups` and `shapes` "
+        "are merged into this scene; a name defined twice is an error. Included files may include others "
+        "(not themselves); a file included twice is read once.",
+    )
     camera: Camera = Field(default_factory=Camera, description="The camera.")
     image: Image = Field(default_factory=Image, description="Image size and sampling.")
     shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")

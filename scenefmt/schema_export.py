@@ -29,11 +29,30 @@ NEWER_KEYWORDS = frozenset(
 )
 
 
+# What `rt validate` checks and the JSON Schema cannot (listed in docs/format.md; the schema
+# agreement test names a reason for each file the two judge differently).
+BEYOND_THE_SCHEMA = {
+    "names": "names referred to across sections (undefined names, cycles of groups or textures)",
+    "files": "files on disk (image textures, included files)",
+    "geometry": "rules over several numbers computed together (zero areas, min below max, look_from and look_at "
+    "apart, up not parallel to the view, a singular matrix, the shutter's order, the image height from width and "
+    "aspect_ratio)",
+    "duplicates": "duplicate keys: a parser keeps one value, so a schema never sees the other",
+    "integers": "an integer written with a decimal point (100.0): JSON Schema counts it as an integer",
+    "magnitudes": "the magnitude of every number (0, or 1e-50 to 1e50): expressible, but it would repeat a "
+    "three-way choice at every number of the schema",
+    "colours": "a colour's limit where it is used (a texture used as an albedo at most 1, as an emission at most 1e12)",
+    "sizes": "what the scene costs once expanded (memory, instance placements, extents through instances)",
+}
+
+
 def _to_draft07(node: Any) -> Any:
     if isinstance(node, list):
         return [_to_draft07(item) for item in node]
     if not isinstance(node, dict):
         return node
+    if "discriminator" in node and "oneOf" in node:
+        return _to_draft07(_tagged_union(node))
     out: dict[str, Any] = {}
     for key, value in node.items():
         if key == "discriminator":
@@ -60,6 +79,30 @@ def _to_draft07(node: Any) -> Any:
     if "$ref" in out and len(out) > 1:
         ref = out.pop("$ref")
         out = {"allOf": [{"$ref": ref}], **out}
+    return out
+
+
+def _tagged_union(node: dict) -> dict:
+    """A union told apart by its `type` key, written so that a validator checks one member only.
+
+    pydantic writes `oneOf` with an OpenAPI `discriminator`, which draft-07 validators ignore: a
+    sphere with one misspelt key then fails every member, and an editor says only "not valid
+    under any of the given schemas". Here the `type` must be one of the tags, and an `if`/`then`
+    per tag applies that member's schema alone, so the error names the wrong key."""
+    mapping = node["discriminator"]["mapping"]
+    prop = node["discriminator"]["propertyName"]
+    out = {k: v for k, v in node.items() if k not in ("discriminator", "oneOf")}
+    out.update(
+        {
+            "type": "object",
+            "required": [prop],
+            "properties": {prop: {"enum": list(mapping)}},
+            "allOf": [
+                {"if": {"required": [prop], "properties": {prop: {"const": tag}}}, "then": {"$ref": ref}}
+                for tag, ref in mapping.items()
+            ],
+        }
+    )
     return out
 
 

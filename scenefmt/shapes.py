@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import Name, Number, StrictModel, Vec3, field_error, slot_kind, vec_cross, vec_length, vec_sub
 from .materials import MaterialSlot
@@ -46,6 +46,16 @@ class SurfaceBase(ShapeBase):
 
 class ClosedShapeBase(ShapeBase):
     """A shape that encloses a volume, so it can hold a medium as well as (or instead of) a surface."""
+
+    # The rule of `_material_or_interior`, for the JSON Schema: a non-null material or interior.
+    model_config = ConfigDict(
+        json_schema_extra={
+            "anyOf": [
+                {"required": ["material"], "properties": {"material": {"not": {"type": "null"}}}},
+                {"required": ["interior"], "properties": {"interior": {"not": {"type": "null"}}}},
+            ]
+        }
+    )
 
     material: Optional[MaterialSlot] = Field(
         None, description="Surface material: a name from `materials:` or an inline material."
@@ -175,7 +185,11 @@ class Disk(SurfaceBase):
 
     type: Literal["disk"] = Field("disk", description="Selects a disk.")
     center: Vec3 = Field(..., description="Centre point.")
-    normal: Vec3 = Field((0.0, 1.0, 0.0), description="Direction the front face looks to; need not be unit length.")
+    normal: Vec3 = Field(
+        (0.0, 1.0, 0.0),
+        description="Direction the front face looks to; need not be unit length.",
+        json_schema_extra={"not": {"const": [0, 0, 0]}},
+    )
     radius: Number = Field(..., gt=0, description="Radius, > 0.")
 
     @field_validator("normal")

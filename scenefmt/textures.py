@@ -58,11 +58,13 @@ class ImageTexture(StrictModel):
         ...,
         min_length=1,
         max_length=4096,
-        description="Image file (PNG, JPEG, ...), relative to the scene file's folder.",
+        description="Image file (PNG, JPEG, ...; or OpenEXR `.exr` and PFM `.pfm`, float RGB read as linear values), "
+        "relative to the folder of the file that names it.",
     )
     colorspace: Literal["srgb", "linear"] = Field(
         "srgb",
-        description="How the file's values are encoded: `srgb` values are linearised on load, `linear` ones are used as they are.",
+        description="How the file's values are encoded: `srgb` values are linearised on load, `linear` ones are used as "
+        "they are. Float images (.exr, .pfm) are always linear.",
     )
 
 

@@ -28,7 +28,9 @@ class Rotation(StrictModel):
     """
 
     axis: Union[Literal["x", "y", "z"], Vec3] = Field(
-        ..., description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin."
+        ...,
+        description="`x`, `y`, `z`, or any non-zero vector [x, y, z] through the origin.",
+        json_schema_extra={"not": {"const": [0, 0, 0]}},
     )
     degrees: Number = Field(..., description="Angle in degrees.")
 
@@ -81,7 +83,12 @@ class ScaleStep(StrictModel):
     ```
     """
 
-    scale: Union[Number, Vec3] = Field(..., description="One factor, or one per axis; negative factors mirror.")
+    scale: Union[Number, Vec3] = Field(
+        ...,
+        description="One factor, or one per axis; negative factors mirror.",
+        # `_no_zero_factor`, for the JSON Schema: not 0, and no 0 in the list.
+        json_schema_extra={"not": {"anyOf": [{"const": 0}, {"type": "array", "contains": {"const": 0}}]}},
+    )
 
     @field_validator("scale")
     @classmethod

@@ -9,14 +9,16 @@ are not reported twice.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterable, Optional
 
 from pydantic import ValidationError
 
 from .diagnostics import Diagnostic, SceneError
 from .errors import data_path, diagnostics_from
 from .graph import SceneGraph, build_graph, graph_problems
-from .loading import SourceDocument, parse_file, parse_text
+from .includes import resolve_includes
+from .loading import SourceDocument, parse_file, parse_stream, parse_text
+from .overrides import apply_overrides
 from .scene import Scene
 
 _SECTIONS = ("textures", "materials", "media", "groups")
@@ -89,13 +91,33 @@ def check_document(doc: SourceDocument) -> LoadedScene:
     return LoadedScene(scene, graph, doc)
 
 
-def load(path) -> LoadedScene:
-    """Load, validate and resolve a scene file (YAML or JSON); raises `SceneError`."""
-    return check_document(parse_file(path))
+def compose(doc: SourceDocument, overrides: Iterable[str] = ()) -> SourceDocument:
+    """Merge the files `doc` includes, then apply the `--set` overrides; raises `SceneError`."""
+    resolve_includes(doc)
+    return apply_overrides(doc, overrides)
 
 
-def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None) -> LoadedScene:
-    """Like `load`, from text."""
-    return check_document(parse_text(text, file, syntax, base_dir=base_dir))
+def load(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+    """Load, validate and resolve a scene file (YAML or JSON), with its includes and `--set`
+    overrides; raises `SceneError`."""
+    return check_document(compose(parse_file(path, syntax), overrides))
 
 
+def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = ()) -> LoadedScene:
+    """Like `load`, from text (includes are relative to `base_dir`, by default the current folder)."""
+    return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
+
+
+def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+    """Like `load`, from a binary stream (standard input), bounded as a file is; relative paths in it
+    (includes, image textures) resolve from the current folder."""
+    return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
+
+
+def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+    """`load` for a path given on the command line: `-` is standard input."""
+    import sys
+
+    if str(path) == "-":
+        return load_stream(sys.stdin.buffer, overrides, syntax)
+    return load(path, overrides, syntax)

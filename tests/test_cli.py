@@ -261,3 +261,72 @@ def test_an_unreadable_image_texture_is_a_scene_error_without_a_traceback(tmp_pa
     assert "s.yaml:1:63: error: materials.e.albedo.file: image file 'tex.png' is not a readable image" in out.stderr
     assert "Traceback" not in out.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml", "tex.png"]
+
+
+def test_version_names_the_package_and_the_format():
+    from importlib.metadata import version
+
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert result.stdout.startswith(f"rt {version('rt-render')} (scene format version 1, Python ")
+
+
+def test_validate_reads_yaml_or_json_from_standard_input(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "lib.yaml").write_text("materials: {m: {type: metal}}\n")
+    text = "include: [lib.yaml]\nshapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: m}]\n"
+    result = runner.invoke(app, ["validate", "-", "--set", "image.width=64"], input=text)
+    assert result.exit_code == 0, result.output
+    assert "<stdin>: valid" in result.stdout
+    assert "image: 64x64" in result.stdout
+    as_json = '{"image": {"width": 1.5}}'
+    for args in (["validate", "-"], ["validate", "--format", "json", "-"]):
+        result = runner.invoke(app, args, input=as_json)
+        assert result.exit_code == 1
+        assert "<stdin>:1:21: error: image.width: expected a valid integer, found 1.5" in result.stderr
+    # Read as YAML on request, the same text is still a scene (JSON is YAML), with positions.
+    result = runner.invoke(app, ["validate", "--format", "yaml", "-"], input=as_json)
+    assert "<stdin>:1:21: error: image.width" in result.stderr
+    result = runner.invoke(app, ["validate", "--format", "json", "-"], input="image: {width: 3}\n")
+    assert "<stdin>:1:1: error: (top level): JSON syntax error" in result.stderr
+
+
+def test_standard_input_is_read_once_and_bounded():
+    from io import BytesIO
+
+    from scenefmt.files import FileProblem, read_stream
+
+    result = runner.invoke(app, ["validate", "-", "-"], input="{}")
+    assert result.exit_code == 2
+    assert "standard input (-) can be read only once" in result.stderr
+    assert read_stream(BytesIO(b"x" * 10), 10) == b"x" * 10
+    with pytest.raises(FileProblem, match="larger than the 9 bytes allowed"):
+        read_stream(BytesIO(b"x" * 10), 9)
+
+
+def test_validate_reports_a_bad_set_argument_and_exits_1(tmp_path):
+    path = write(tmp_path, "ok.yaml", VALID)
+    result = runner.invoke(app, ["validate", str(path), "--set", "image.width=wide", "--json"])
+    assert result.exit_code == 1
+    (error,) = json.loads(result.stdout)["files"][0]["errors"]
+    assert error["file"] == "--set image.width=wide"
+    assert (error["line"], error["column"], error["path"]) == (1, 13, "image.width")
+
+
+@pytest.mark.slow
+def test_render_reads_stdin_applies_set_and_writes_openexr(tmp_path):
+    # One render through the whole program: the scene on standard input, a --set value, an EXR
+    # image texture (relative to the current folder) and the linear image written as EXR.
+    from renderer.film import write_exr
+    from scenefmt.hdr_files import read_hdr
+
+    write_exr(tmp_path / "tex.exr", np.full((2, 2, 3), 0.5))
+    scene = SMALL.replace("albedo: [0.6, 0.3, 0.2]", "albedo: {type: image, file: tex.exr}")
+    out = run_rt("render", "-", "--set", "image.width=16", "--spp", "2", "--hdr", "lin.exr", cwd=tmp_path, input=scene)
+    assert out.returncode == 0, out.stderr
+    assert "wrote stdin.png, lin.exr: 16x8, 2 spp" in out.stdout
+    linear = read_hdr(tmp_path / "lin.exr", 1000)
+    assert linear.shape == (8, 16, 3) and linear.max() > 0
+    bad = run_rt("render", "-", "--set", "image.width=0", cwd=tmp_path, input=scene)
+    assert bad.returncode == 1
+    assert "--set image.width=0:1:13: error: image.width: expected a number >= 1, found 0" in bad.stderr

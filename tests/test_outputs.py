@@ -57,6 +57,8 @@ def render_args(tmp_path, *args):
     [
         ("-o", lambda tmp: tmp / "dir.png", "it is a directory, not a file that can be replaced"),
         ("--hdr", lambda tmp: tmp / "dir.pfm", "it is a directory"),
+        ("--hdr", lambda tmp: tmp / "dir.exr", "it is a directory"),
+        ("--hdr", lambda tmp: tmp / "out.hdr", "the file name must end in .exr or .pfm"),
         ("--save-state", lambda tmp: tmp / "dir.npz", "it is a directory"),
         ("-o", lambda tmp: Path("/sys/rt-test.png"), "cannot write in /sys"),
         ("--noise-map", lambda tmp: Path("/proc/rt-test.png"), "cannot write in /proc"),
@@ -66,6 +68,7 @@ def render_args(tmp_path, *args):
 def test_outputs_that_cannot_be_written_are_refused_before_rendering(tmp_path, option, make, words):
     (tmp_path / "dir.png").mkdir()
     (tmp_path / "dir.pfm").mkdir()
+    (tmp_path / "dir.exr").mkdir()
     (tmp_path / "dir.npz").mkdir()
     start = time.perf_counter()
     result = runner.invoke(app, render_args(tmp_path, option, str(make(tmp_path))))
@@ -150,3 +153,42 @@ def test_validate_reports_the_memory_a_render_needs(tmp_path):
     result = runner.invoke(app, ["validate", str(scene)])
     assert result.exit_code == 0, result.output
     assert "  memory: about 137.3 MiB (film 137.3 MiB); at most " in result.stdout
+
+
+def test_hdr_is_written_as_openexr_and_exposure_changes_the_png_only(tmp_path):
+    from PIL import Image
+
+    from renderer.film import Film, read_pfm
+    from rt import outputs
+    from rt.render_job import RenderOptions, fail
+    from scenefmt.hdr_files import read_hdr
+
+    total = np.zeros((2, 3, 3))
+    total[0, 0] = (1.0, 2.0, 100.0)  # 2 samples: a mean of (0.5, 1, 50), above 1 kept in the HDR image
+    total[1, 2] = (0.25, 0.125, 0.0)
+    film = Film(total, total**2, 2)
+    for suffix in (".exr", ".pfm"):
+        opts = RenderOptions(scene=tmp_path / "s.yaml", output=tmp_path / "out.png", hdr=tmp_path / f"out{suffix}", exposure=1.0)
+        outputs.write_outputs(opts, film, None, fail)
+        written = read_hdr(tmp_path / f"out{suffix}", 100)
+        assert written.dtype == np.float32 and written.shape == (2, 3, 3)
+        assert np.array_equal(written, film.mean().astype(np.float32))
+    assert np.array_equal(read_pfm(tmp_path / "out.pfm"), read_hdr(tmp_path / "out.exr", 100))
+    with Image.open(tmp_path / "out.png") as img:
+        png = np.asarray(img)
+    # One stop up: red 0.125 * 2 = 0.25, gamma 2 -> 0.5 -> 128 (90 without --exposure); green 0.0625 * 2 -> 90.
+    assert png[1, 2, 0] == 128 and png[1, 2, 1] == 90 and png[0, 0, 2] == 255
+
+
+def test_an_exr_without_the_openexr_package_is_refused_before_rendering(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "OpenEXR", None)  # import OpenEXR now raises ImportError
+    result = runner.invoke(app, render_args(tmp_path, "--hdr", str(tmp_path / "out.exr"), "-o", str(tmp_path / "o.png")))
+    assert result.exit_code == 1
+    assert "--hdr" in result.output and "needs the openexr package, which is not installed: pip install 'rt-render[exr]'" in result.output
+    assert list(tmp_path.iterdir()) == [tmp_path / "s.yaml"]
+
+
+def test_an_exposure_beyond_30_stops_is_refused(tmp_path):
+    result = runner.invoke(app, render_args(tmp_path, "--exposure", "31"))
+    assert result.exit_code == 1
+    assert "--exposure 31: expected a number of stops from -30 to 30" in result.output

@@ -40,6 +40,36 @@ shapes:
   `rt schema` prints the schema.
 - **Checking.** `rt validate scene.yaml` checks a file without rendering it and reports every
   problem with its line and column.
+- **Includes.** `include: [materials.yaml, parts/room.yaml]` merges the named definitions
+  (`textures`, `materials`, `media`, `groups`) and the `shapes` of other files into the scene;
+  names are relative to the including file's folder. An included file holds only those sections
+  (and `include`, `version`, `description`); the camera, image, shutter and background belong to
+  the main file. A name defined in two files is an error that gives both places; a file that
+  includes itself, directly or through others, is an error; a file included by two others (a
+  shared library of materials) is read once. An error inside an included file is reported at
+  its own line and column, with the place that included it:
+  `parts/room.yaml:4:60: error: shapes[1].material: undefined material 'glas'; did you mean
+  'glass'? (included from scene.yaml:2:28)`. Includes nest at most 16 deep, at most 256 files
+  and 64 MiB in all.
+- **Changing a value from the command line.** `rt render` and `rt validate` take
+  `--set KEY.PATH=VALUE` (repeatable): `--set image.samples_per_pixel=64 --set
+  materials.glass.ior=1.33 --set 'shapes[2].center=[0, 1, 0]'`. `VALUE` is read as YAML and
+  checked like a value in the file; an error names the argument, with the column within it:
+  `--set image.width=100.5:1:13: error: image.width: expected a valid integer, found 100.5`.
+  Missing mappings along the path are created; a list item must exist. `include` cannot be set.
+- **Standard input.** `rt render -` and `rt validate -` read the scene from standard input
+  (YAML or JSON, detected from the first character, or given by `--format yaml|json`); its
+  includes and image files are relative to the current folder.
+
+**What the JSON Schema checks, and what only `rt validate` can.** The schema in `schemas/`
+(for editors) holds every rule JSON Schema can express: types, ranges, whole numbers, required
+keys, unknown keys, a `type` that selects one member of each union (so an editor names the
+wrong key, not "not valid under any of the given schemas"), a sphere, moving sphere or box
+needing a `material` or an `interior`, `aperture` against a positive `defocus_angle`, `height`
+against `aspect_ratio`, no zero vector as a disk's normal, a rotation axis or `up`, no zero
+scale factor. `rt validate` also checks:
+
+{beyond}
 
 In the tables below, *Default* is the value a key takes when it is left out; **required** keys
 have none. A `type` key selects the kind of a definition and must be given (except on a group).

@@ -92,7 +92,11 @@ def render_reference() -> str:
     describer = Describer(sections)
     required = required_type_models(Scene)
     name_max = constraint(flatten(Name)[1], "max_length")
-    out: list[str] = [INTRODUCTION.replace("{name_max}", str(name_max)).rstrip("\n"), "", "## Contents", ""]
+    from ..schema_export import BEYOND_THE_SCHEMA
+
+    beyond = "\n".join(f"- {reason}" for reason in BEYOND_THE_SCHEMA.values())
+    intro = INTRODUCTION.replace("{name_max}", str(name_max)).replace("{beyond}", beyond)
+    out: list[str] = [intro.rstrip("\n"), "", "## Contents", ""]
     for s in sections:
         out.append(f"- [{s.title}](#{s.anchor})")
         if not s.single:

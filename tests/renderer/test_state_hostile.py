@@ -80,6 +80,12 @@ def test_a_compressed_state_that_expands_to_gigabytes_is_refused_before_decompre
     assert peak < 20_000_000
 
 
+def needs_zip_version(data: bytes, version: int) -> bytes:
+    """`data` with its first central directory entry asking for zip `version` (x10) to extract."""
+    at = data.index(b"PK\x01\x02") + 6
+    return data[:at] + version.to_bytes(2, "little") + data[at + 2:]
+
+
 @pytest.mark.parametrize(
     "make, words",
     [
@@ -98,6 +104,8 @@ def test_a_compressed_state_that_expands_to_gigabytes_is_refused_before_decompre
         (lambda: state_bytes(total_sq=np.full((3, 4, 3), -1.0)), "total_sq holds negative sums"),
         (lambda: state_bytes(total=np.full((3, 4, 3), 1e300)), "total holds sums above"),
         (lambda: state_bytes(extra={"more": np.zeros(3)}), "not a saved render state"),
+        # Found by the fuzzer: a central directory asking for a zip version Python cannot read.
+        (lambda: needs_zip_version(state_bytes(), 118), "not a zip archive"),
     ],
 )
 def test_corrupt_states_are_refused_with_a_reason(tmp_path, make, words):

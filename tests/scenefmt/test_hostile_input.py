@@ -144,6 +144,16 @@ def test_an_alias_chain_that_nests_deeply_once_expanded_is_refused():
     assert (diag.line, diag.column) == (8, 19)
 
 
+def test_an_alias_bomb_below_the_document_limit_is_refused_at_the_alias():
+    # Found by the fuzzer: a million values through six levels of aliases passed the whole-document
+    # bound and took 8 s and 240 MiB to refuse further on; aliases now have a budget of their own.
+    text = "a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + "\n".join(
+        f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 10)}]" for i in range(1, 6))
+    diag = only(text)
+    assert "the aliases expand to more than 200,000 values" in diag.message
+    assert diag.line == 6
+
+
 # --- control characters ---------------------------------------------------------------------------
 
 

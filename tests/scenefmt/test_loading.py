@@ -123,7 +123,11 @@ def test_node_count_is_bounded_in_json(monkeypatch):
 
 
 @pytest.mark.parametrize("syntax, text, where, words", [
-    ("yaml", "a: [1, 2\nb: 3\n", (2, 2), "YAML syntax error"),
+    # An unclosed bracket or quote is noticed a line later; the error points at where it opens.
+    ("yaml", "a: [1, 2\nb: 3\n", (1, 4), "this '[' is never closed by a ']' (did not find expected ',' or ']' at line 2, column 2)"),
+    ("yaml", "a: {b: 1\nc: 3\n", (1, 4), "this '{' is never closed by a '}'"),
+    ("yaml", 'a: "open\nb: 3\n', (1, 4), "this '\"' is never closed"),
+    ("yaml", "a: [1, 2]]\n", (1, 10), "YAML syntax error"),
     ("json", '{"a": [1, 2,]}', (1, 13), "trailing comma before ']'"),
     ("json", '{"a": 1e400}', (1, 7), "too large"),
     ("json", '{"a": "open}', (1, 7), "unterminated string"),

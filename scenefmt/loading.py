@@ -221,8 +221,8 @@ def _prescan_yaml(text: str, file: str) -> None:
                 if aliased > MAX_ALIASED:
                     raise SceneError([Diagnostic(
                         file, *_mark_position(event.start_mark), (),
-                        f"the aliases expand to more than {MAX_ALIASED:,} values (at *{event.anchor}); "
-                        "refusing to load it (anchors are for reuse, not for multiplying data)",
+                        f"the document expands to more than {MAX_ALIASED:,} values through its aliases (at "
+                        f"*{event.anchor}: anchors are for reuse, not for multiplying data); refusing to load it",
                     )])
             else:
                 continue

@@ -207,6 +207,23 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray) -> Bvh:
     return Bvh(node_lo, node_hi, a, n, axis, order)
 
 
+def join(first: Bvh, second: Bvh) -> Bvh:
+    """One tree with `first` and `second` as the two children of its root: the leaves of each
+    stay apart (a group's surfaces and its mesh triangles live in different tables). The
+    second tree's items are numbered after the first's in `order`."""
+    k = len(first.lo)
+    root_lo = np.minimum(first.lo[0], second.lo[0])[None, :]
+    root_hi = np.maximum(first.hi[0], second.hi[0])[None, :]
+    a1 = np.where(first.n > 0, first.a, first.a + 1)
+    a2 = np.where(second.n > 0, second.a + len(first.order), second.a + 1 + k)
+    return Bvh(
+        np.concatenate([root_lo, first.lo, second.lo]), np.concatenate([root_hi, first.hi, second.hi]),
+        np.concatenate([[1 + k], a1, a2]).astype(np.int32), np.concatenate([[0], first.n, second.n]).astype(np.int32),
+        np.concatenate([[0], first.axis, second.axis]).astype(np.int32),
+        np.concatenate([first.order, second.order + len(first.order)]).astype(np.int32),
+    )
+
+
 # --- four-wide trees --------------------------------------------------------------------------
 
 WIDTH = 4

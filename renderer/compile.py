@@ -19,7 +19,7 @@ from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
 
 from . import background, camera, materials, media
-from .bvh import WIDTH, build_bvh, join, single_leaf, widen
+from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
 from .materials import MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
@@ -241,7 +241,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         if tree.meshes:
             lo = np.concatenate([rows.lo for rows, _ in tree.meshes])
             hi = np.concatenate([rows.hi for rows, _ in tree.meshes])
-            tris = build_tree(lo, hi)
+            tris = build_bvh(lo, hi, MESH_TRAVERSAL_COST) if use_bvh else single_leaf(lo, hi)
             mesh.add(tree.meshes, tris.order)
             bvh = tris if bvh is None else join(bvh, tris)
         tree_lo.append(bvh.lo[0])
@@ -260,7 +260,10 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         node_count += len(child)
 
     def cat(parts, width, dtype):
-        return np.ascontiguousarray(np.concatenate(parts).astype(dtype) if parts else np.zeros((0, width), dtype))
+        if not parts:
+            return np.zeros((0, width), dtype)
+        joined = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        return np.ascontiguousarray(joined, dtype=dtype)
 
     # Instances: world bounds from the 8 corners of each tree's root box.
     count = len(walk.instances)

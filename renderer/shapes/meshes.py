@@ -75,7 +75,7 @@ def flatten(mesh, m, smooth: bool) -> MeshRows:
     """The mesh data (scenefmt.meshfile.MeshData) baked through affine map m, all in numpy."""
     lin = np.array(affine.linear(m), np.float64)
     shift = np.array([row[3] for row in m], np.float64)
-    vertices = mesh.vertices @ lin.T + shift
+    vertices = mesh.vertices if affine.is_identity(m) else mesh.vertices @ lin.T + shift
     faces = mesh.faces
     if np.linalg.det(lin) < 0:
         # A mirror turns the corners' order around: swap two so the front stays outside.

@@ -1,6 +1,8 @@
-"""How render time and memory grow with the number of primitives (10^2 .. 10^6 spheres).
+"""How render time and memory grow with the number of primitives (10^2 .. 10^6 spheres, or
+icosphere meshes of 20 k^2 triangles read from PLY files).
 
     python benchmarks/scaling.py [--max-exponent 6] [--spp 4]
+    python benchmarks/scaling.py --meshes [--max-triangles 3000000] [--spp 4]
 
 Spheres are scattered uniformly through a fixed cube with radii shrinking as N^(-1/3), so the
 picture stays alike while N grows. For each N it prints the time to build the scene (models,
@@ -39,12 +41,65 @@ def build(n: int, seed: int = 1):
     return build_graph(scene)
 
 
+MESH_SCENE = """
+camera: {look_from: [0, 0.8, 3.2], look_at: [0, 0, 0], vfov: 40}
+image: {width: 96, aspect_ratio: 1.0, samples_per_pixel: 1, max_depth: 4}
+background: [0.8, 0.85, 1.0]
+materials: {white: {type: lambertian, albedo: [0.7, 0.7, 0.7]}}
+shapes:
+  - {type: mesh, file: mesh.ply, material: white}
+"""
+
+
+def meshes(max_triangles: int, spp: int) -> None:
+    """File to first sample (read, check, flatten, tree), memory and render time per sample."""
+    import tempfile
+
+    from renderer.compile import compile_scene
+    from renderer.render import render
+    from scenefmt import meshgen
+    from scenefmt.validation import load
+
+    print(f"{'triangles':>10} {'load s':>7} {'flatten+tree s':>15} {'to 1st sample s':>16} {'bytes/tri':>10} "
+          f"{'ms/spp':>8} {'ms/spp / log2 N':>16}")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        (folder / "scene.yaml").write_text(MESH_SCENE)
+        warm = True
+        for splits in (3, 7, 22, 71, 224, 388, 708):
+            n = 20 * splits * splits
+            if n > max_triangles:
+                break
+            meshgen.write_ply(folder / "mesh.ply", *meshgen.icosphere(splits))
+            if warm:  # compile the kernels once, outside the timings
+                render(load(folder / "scene.yaml").graph, samples=1)
+                warm = False
+            t0 = time.perf_counter()
+            graph = load(folder / "scene.yaml").graph
+            t1 = time.perf_counter()
+            flat = compile_scene(graph)
+            t2 = time.perf_counter()
+            first = render(graph, samples=1, flat=flat)
+            t3 = time.perf_counter()
+            result = render(graph, samples=spp, flat=flat)
+            per_spp = 1000 * result.stats.seconds / spp
+            nbytes = sum(a.nbytes for a in flat)
+            print(f"{n:>10} {t1 - t0:>7.2f} {t2 - t1:>15.2f} {t2 - t0 + first.stats.first_pass_seconds:>16.2f} "
+                  f"{nbytes / n:>10.0f} {per_spp:>8.2f} {per_spp / math.log2(n):>16.3f}", flush=True)
+            del graph, flat, first, result
+
+
 def main() -> int:
     sys.path.insert(0, str(ROOT))
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-exponent", type=int, default=6)
     parser.add_argument("--spp", type=int, default=4)
+    parser.add_argument("--meshes", action="store_true", help="icosphere meshes from PLY files instead of spheres")
+    parser.add_argument("--max-triangles", type=int, default=3_000_000)
     args = parser.parse_args()
+    if args.meshes:
+        meshes(args.max_triangles, args.spp)
+        return 0
     from renderer.compile import compile_scene
     from renderer.render import render
 

@@ -26,6 +26,10 @@ PAD_RELATIVE = 1e-9
 # four boxes in one vector step, so a box costs far less than a primitive: splitting down to
 # smaller leaves made the Cornell box (18 large quads) 1.28 times as fast, other scenes the same.
 TRAVERSAL_COST = 0.3
+# For mesh triangles, leaves of a few triangles: a triangle test is cheap next to a wide node
+# (256 bytes), and at 0.3 a 10^6-triangle tree took 120 bytes a triangle; at 1.0 it takes about
+# 60, within the issue's 150 bytes a triangle with the triangle tables.
+MESH_TRAVERSAL_COST = 1.0
 # Below this depth splits halve the range by index, so no tree is deeper than about
 # SAH_DEPTH_LIMIT + log2(n) and the traversal stack (config.BVH_STACK) cannot overflow.
 SAH_DEPTH_LIMIT = 32
@@ -41,14 +45,15 @@ class Bvh(NamedTuple):
 
 
 @njit(cache=True, error_model="numpy")
-def _sah_split(lo, hi, idx, start, end, bins):
-    """(axis, position, cost) of the best binned-SAH split of idx[start:end]; axis -1 if none."""
+def _sah_split(lo, hi, cen, start, end, bins):
+    """(axis, position, cost) of the best binned-SAH split of the boxes in rows start:end; axis
+    -1 if none. `cen` holds the boxes' centres, 0.5 (lo + hi). The rows are the build's copies,
+    kept in slot order, so every pass reads memory in sequence."""
     cmin = np.full(3, np.inf)
     cmax = np.full(3, -np.inf)
-    for k in range(start, end):
-        j = idx[k]
+    for j in range(start, end):
         for ax in range(3):
-            c = 0.5 * (lo[j, ax] + hi[j, ax])
+            c = cen[j, ax]
             cmin[ax] = min(cmin[ax], c)
             cmax[ax] = max(cmax[ax], c)
     best_axis, best_pos, best_cost = -1, 0.0, np.inf
@@ -63,9 +68,8 @@ def _sah_split(lo, hi, idx, start, end, bins):
         blo[:, :] = np.inf
         bhi[:, :] = -np.inf
         inv = bins / extent
-        for k in range(start, end):
-            j = idx[k]
-            c = 0.5 * (lo[j, ax] + hi[j, ax])
+        for j in range(start, end):
+            c = cen[j, ax]
             b = min(bins - 1, int((c - cmin[ax]) * inv))
             count[b] += 1
             for q in range(3):
@@ -107,8 +111,12 @@ def _area(lo, hi):
 
 
 @njit(cache=True, error_model="numpy")
-def _build(lo, hi, bins, max_leaf):
+def _build(lo, hi, bins, max_leaf, traversal_cost):
     n = lo.shape[0]
+    # Copies of the boxes and their centres, permuted with idx: row k is the box in slot k.
+    lo = lo.copy()
+    hi = hi.copy()
+    cen = 0.5 * (lo + hi)
     idx = np.arange(n).astype(np.int32)
     cap = max(1, 2 * n)
     node_lo = np.empty((cap, 3))
@@ -131,30 +139,33 @@ def _build(lo, hi, bins, max_leaf):
         for q in range(3):
             node_lo[node, q] = np.inf
             node_hi[node, q] = -np.inf
-        for k in range(start, end):
-            j = idx[k]
+        for j in range(start, end):
             for q in range(3):
                 node_lo[node, q] = min(node_lo[node, q], lo[j, q])
                 node_hi[node, q] = max(node_hi[node, q], hi[j, q])
         size = end - start
         axis, pos, cost = -1, 0.0, np.inf
         if size > 1 and depth < SAH_DEPTH_LIMIT:
-            axis, pos, cost = _sah_split(lo, hi, idx, start, end, bins)
+            axis, pos, cost = _sah_split(lo, hi, cen, start, end, bins)
         # SAH in units of one primitive test (see TRAVERSAL_COST).
         node_area = _area(node_lo[node], node_hi[node])
         leaf_cost = size * node_area
-        if size <= max_leaf and not cost + TRAVERSAL_COST * node_area < leaf_cost:
+        if size <= max_leaf and not cost + traversal_cost * node_area < leaf_cost:
             axis = -1
         mid = start
         if axis >= 0:
             # Partition by centroid against the chosen plane.
             i, j = start, end - 1
             while i <= j:
-                c = 0.5 * (lo[idx[i], axis] + hi[idx[i], axis])
+                c = cen[i, axis]
                 if c < pos:
                     i += 1
                 else:
                     idx[i], idx[j] = idx[j], idx[i]
+                    for q in range(3):
+                        lo[i, q], lo[j, q] = lo[j, q], lo[i, q]
+                        hi[i, q], hi[j, q] = hi[j, q], hi[i, q]
+                        cen[i, q], cen[j, q] = cen[j, q], cen[i, q]
                     j -= 1
             mid = i
             if mid == start or mid == end:
@@ -191,8 +202,9 @@ def single_leaf(lo: np.ndarray, hi: np.ndarray) -> Bvh:
                np.arange(n, dtype=np.int32))
 
 
-def build_bvh(lo: np.ndarray, hi: np.ndarray) -> Bvh:
-    """A BVH over boxes [lo[i], hi[i]]; an empty input gives one empty leaf."""
+def build_bvh(lo: np.ndarray, hi: np.ndarray, traversal_cost: float = TRAVERSAL_COST) -> Bvh:
+    """A BVH over boxes [lo[i], hi[i]]; an empty input gives one empty leaf. `traversal_cost` is
+    a node visit's SAH cost in primitive tests (MESH_TRAVERSAL_COST for triangles)."""
     lo = np.ascontiguousarray(lo, dtype=np.float64)
     hi = np.ascontiguousarray(hi, dtype=np.float64)
     if lo.shape[0] == 0:
@@ -203,8 +215,25 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray) -> Bvh:
     pad = np.maximum(PAD_RELATIVE * scale, 1e-300)
     lo = lo - pad
     hi = hi + pad
-    node_lo, node_hi, a, n, axis, order = _build(lo, hi, BVH_BINS, BVH_MAX_LEAF)
+    node_lo, node_hi, a, n, axis, order = _build(lo, hi, BVH_BINS, BVH_MAX_LEAF, float(traversal_cost))
     return Bvh(node_lo, node_hi, a, n, axis, order)
+
+
+def join(first: Bvh, second: Bvh) -> Bvh:
+    """One tree with `first` and `second` as the two children of its root: the leaves of each
+    stay apart (a group's surfaces and its mesh triangles live in different tables). The
+    second tree's items are numbered after the first's in `order`."""
+    k = len(first.lo)
+    root_lo = np.minimum(first.lo[0], second.lo[0])[None, :]
+    root_hi = np.maximum(first.hi[0], second.hi[0])[None, :]
+    a1 = np.where(first.n > 0, first.a, first.a + 1)
+    a2 = np.where(second.n > 0, second.a + len(first.order), second.a + 1 + k)
+    return Bvh(
+        np.concatenate([root_lo, first.lo, second.lo]), np.concatenate([root_hi, first.hi, second.hi]),
+        np.concatenate([[1 + k], a1, a2]).astype(np.int32), np.concatenate([[0], first.n, second.n]).astype(np.int32),
+        np.concatenate([[0], first.axis, second.axis]).astype(np.int32),
+        np.concatenate([first.order, second.order + len(first.order)]).astype(np.int32),
+    )
 
 
 # --- four-wide trees --------------------------------------------------------------------------

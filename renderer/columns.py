@@ -107,10 +107,11 @@ def declared_layouts() -> list[Layout]:
     """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
     from . import background, camera, materials, media, textures
     from .kernels import traverse
-    from .shapes import PRIMITIVE_I, boxes, planar, spheres
+    from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
     return [
         PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F,
+        meshes.TRIANGLE_I, meshes.MESH_I,
         materials.MATERIAL_I, materials.MATERIAL_F,
         textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
         traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,

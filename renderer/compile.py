@@ -6,7 +6,8 @@ baked into primitives wherever the shape keeps its kind (a transformed quad, tri
 box is still made of parallelograms, a box kept axis-aligned is still one box row, a sphere
 under a similarity is still a sphere), so the common case pays nothing for instancing. Groups
 placed by instances become shared bottom-level trees; a sphere under a non-uniform scale
-becomes a one-shape instance.
+becomes a one-shape instance. A mesh is baked into its group's tree in numpy (shapes/meshes.py);
+a group with both shapes and a mesh gets one tree whose root joins a tree over each.
 """
 
 from __future__ import annotations
@@ -18,12 +19,13 @@ from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
 
 from . import background, camera, lights, materials, media
-from .bvh import WIDTH, build_bvh, single_leaf, widen
+from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
 from .materials import MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
-from .shapes import BOX, PRIM_WIDTH, PRIMITIVE_I
+from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, meshes
 from .shapes.dispatch import shape_rows, similarity_of
+from .shapes.meshes import MESH_I, TRIANGLE_I
 from .textures import TextureTables
 
 
@@ -36,6 +38,11 @@ class _Tree:
         self.rows: list[list] = []
         self.lo: list[tuple] = []  # bounds over the shutter interval
         self.hi: list[tuple] = []
+        self.meshes: list[tuple[meshes.MeshRows, int]] = []  # (rows, material row), in numpy
+
+    @property
+    def triangles(self) -> int:
+        return sum(len(rows.faces) for rows, _ in self.meshes)
 
     def add(self, kind: int, row: list, material: int, lo, hi) -> None:
         self.kind.append(kind)
@@ -46,6 +53,9 @@ class _Tree:
 
     def __len__(self) -> int:
         return len(self.kind)
+
+    def empty(self) -> bool:
+        return not self.kind and not self.meshes
 
 
 class _Walk:
@@ -65,7 +75,6 @@ class _Walk:
         self.tree_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
-        self.emitters = False  # whether any primitive's material is a diffuse light
         # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
         self.own_instance: dict[int, int] = {}
         # A scene's many shapes share a few transforms.
@@ -102,12 +111,14 @@ class _Walk:
     def add_shape(self, tree: _Tree, shape: ShapeNode, m) -> bool:
         """Append shape's rows (surface and medium) baked through m; False if it needs an instance."""
         mat = self.material(shape.material) if shape.material is not None else None
+        if shape.kind == "mesh":
+            tree.meshes.append((meshes.flatten(shape.mesh, m, shape.model.smooth), mat))
+            return True
         as_box = mat is not None and not self.textures.reads_uv(self.mat_i[mat][MAT_TEXTURE])
         surface = shape_rows(shape.model, m, self.similarity(m), self.shutter, as_box)
         if surface is None:
             return False
         if mat is not None:
-            self.emitters = self.emitters or shape.material.kind == "diffuse_light"
             for kind, row, lo, hi in surface:
                 tree.add(kind, row, mat, lo, hi)
         if shape.interior is not None:
@@ -133,7 +144,7 @@ class _Walk:
             self.trees.append(tree)
             self.fill(group, tree)
         index = self.tree_of_group[key]
-        if len(self.trees[index]):
+        if not self.trees[index].empty():
             self.instances.append((index, world_from_group))
         for member in group.members:
             if isinstance(member, InstanceNode):
@@ -153,6 +164,46 @@ class _Walk:
                 self.trees.append(own)
 
 
+class _MeshTables:
+    """The mesh tables of the flat scene, filled tree by tree in leaf order."""
+
+    def __init__(self):
+        self.prims_i: list[np.ndarray] = []
+        self.tri_i: list[np.ndarray] = []
+        self.mesh_i: list[list] = []
+        self.verts_f: list[np.ndarray] = []
+        self.verts_n: list[np.ndarray] = []
+        self.verts_uv: list[np.ndarray] = []
+        self.triangles = self.vertices = self.normals = self.uvs = 0
+
+    def add(self, tree_meshes, order: np.ndarray) -> None:
+        """Append the meshes of one tree; `order` is its tree's triangle order."""
+        tri, kinds = [], []
+        for rows, material in tree_meshes:
+            row = len(self.mesh_i)
+            normals = uvs = -1
+            if rows.normals is not None:
+                normals = self.normals
+                self.verts_n.append(rows.normals)
+                self.normals += len(rows.normals)
+            if rows.uvs is not None:
+                uvs = self.uvs
+                self.verts_uv.append(rows.uvs)
+                self.uvs += len(rows.uvs)
+            self.mesh_i.append(MESH_I.row(first_vertex=self.vertices, normals=normals, uvs=uvs))
+            t = np.empty((len(rows.faces), TRIANGLE_I.width), np.int32)
+            t[:, 0:3] = rows.faces + self.vertices
+            t[:, 3] = row
+            tri.append(t)
+            kinds.append(np.broadcast_to(np.array([MESH_TRIANGLE, material], np.int32), (len(rows.faces), 2)))
+            self.verts_f.append(rows.vertices)
+            self.vertices += len(rows.vertices)
+        tri_rows = np.concatenate(tri)[order]
+        self.tri_i.append(tri_rows)
+        self.prims_i.append(np.concatenate(kinds)[order])
+        self.triangles += len(tri_rows)
+
+
 def _inverse_affine(m: np.ndarray) -> np.ndarray:
     full = np.eye(4)
     full[:3, :] = m.reshape(3, 4)
@@ -168,34 +219,51 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     build_tree = build_bvh if use_bvh else single_leaf
     prim_i, prim_f, node_f, node_i = [], [], [], []
     prim_count = node_count = 0
-    tree_root, tree_lo, tree_hi, tree_prims = [], [], [], []
+    tree_root, tree_lo, tree_hi = [], [], []
+    # Mesh triangles come after every prims_f row in prims_i (see shapes/meshes.py).
+    first_triangle = sum(len(tree) for tree in walk.trees)
+    mesh = _MeshTables()
     for tree in walk.trees:
         tree_root.append(node_count)
-        tree_prims.append((prim_count, len(tree)))
-        if not len(tree):
+        if tree.empty():
             tree_lo.append(np.full(3, np.inf))
             tree_hi.append(np.full(3, -np.inf))
             continue
-        bvh = build_tree(np.array(tree.lo, np.float64).reshape(-1, 3), np.array(tree.hi, np.float64).reshape(-1, 3))
+        n_prims = len(tree)
+        bvh = None
+        if n_prims:
+            bvh = build_tree(np.array(tree.lo, np.float64).reshape(-1, 3), np.array(tree.hi, np.float64).reshape(-1, 3))
+            # The tree's rows in leaf order.
+            ints = np.stack([np.array(tree.kind, np.int32), np.array(tree.material, np.int32)], axis=1)
+            prim_i.append(ints[bvh.order])
+            prim_f.append(np.array(tree.rows, np.float64).reshape(-1, PRIM_WIDTH)[bvh.order])
+        tri_base = mesh.triangles
+        if tree.meshes:
+            lo = np.concatenate([rows.lo for rows, _ in tree.meshes])
+            hi = np.concatenate([rows.hi for rows, _ in tree.meshes])
+            tris = build_bvh(lo, hi, MESH_TRAVERSAL_COST) if use_bvh else single_leaf(lo, hi)
+            mesh.add(tree.meshes, tris.order)
+            bvh = tris if bvh is None else join(bvh, tris)
         tree_lo.append(bvh.lo[0])
         tree_hi.append(bvh.hi[0])
-        # The tree's rows in leaf order.
-        ints = np.stack([np.array(tree.kind, np.int32), np.array(tree.material, np.int32)], axis=1)
-        prim_i.append(ints[bvh.order])
-        prim_f.append(np.array(tree.rows, np.float64).reshape(-1, PRIM_WIDTH)[bvh.order])
         base = prim_count
-        prim_count += len(bvh.order)
+        prim_count += n_prims
         wide = widen(bvh)
         child = wide.child
-        # Offsets become absolute: leaves into the primitive table, interior slots into the nodes.
+        # Offsets become absolute: leaves into the primitive table (a leaf slot past the tree's
+        # primitives is a triangle's), interior slots into the nodes.
         codes, counts = child[:, :WIDTH], child[:, WIDTH:]
-        codes += np.where(counts > 0, base, np.where(counts == 0, node_count, 0))
+        leaf_base = np.where(codes < n_prims, base, first_triangle + tri_base - n_prims)
+        codes += np.where(counts > 0, leaf_base, np.where(counts == 0, node_count, 0))
         node_f.append(wide.box)
         node_i.append(child)
         node_count += len(child)
 
     def cat(parts, width, dtype):
-        return np.ascontiguousarray(np.concatenate(parts).astype(dtype) if parts else np.zeros((0, width), dtype))
+        if not parts:
+            return np.zeros((0, width), dtype)
+        joined = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        return np.ascontiguousarray(joined, dtype=dtype)
 
     # Instances: world bounds from the 8 corners of each tree's root box.
     count = len(walk.instances)
@@ -221,10 +289,15 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     for row in range(len(mat_i)):
         mat_i[row, MAT_READS_UV] = walk.textures.reads_uv(mat_i[row, MAT_TEXTURE])
     flat = FlatScene(
-        prims_i=cat(prim_i, PRIMITIVE_I.width, np.int32),
+        prims_i=cat(prim_i + mesh.prims_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),
         bnd_i=np.array(walk.bnd_kind, np.int32),
         bnd_f=np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH),
+        tri_i=cat(mesh.tri_i, TRIANGLE_I.width, np.int32),
+        mesh_i=np.array(mesh.mesh_i, np.int32).reshape(-1, MESH_I.width),
+        verts_f=cat(mesh.verts_f, 3, np.float64),
+        verts_n=cat(mesh.verts_n, 3, np.float64),
+        verts_uv=cat(mesh.verts_uv, 2, np.float64),
         nodes_f=cat(node_f, 6 * WIDTH, np.float64),
         nodes_i=cat(node_i, NODE_I.width, np.int64),
         inst_i=np.ascontiguousarray(inst_i[order]),
@@ -236,11 +309,9 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **walk.textures.arrays(),
         camera=np.array(camera.flatten(walk.graph), np.float64),
         background=np.array(background.flatten(walk.graph), np.float64),
-        **lights.no_lights(prim_count, count),
+        **lights.no_lights(0, 0),
     )
-    if walk.emitters:
-        flat = flat._replace(**lights.flatten(flat, [tree_prims[walk.instances[k][0]] for k in order]))
-    return flat
+    return flat._replace(**lights.flatten(flat))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

@@ -23,6 +23,12 @@ class FlatScene(NamedTuple):
     # Boundary rows of media (not in any tree), laid out as primitives are.
     bnd_i: np.ndarray  # (B,) int32 kind
     bnd_f: np.ndarray  # as prims_f
+    # Mesh triangles (prims_i rows P.. with P = len(prims_f)) and the tables they index: shapes/meshes.py.
+    tri_i: np.ndarray  # TRIANGLE_I, one row per mesh triangle
+    mesh_i: np.ndarray  # MESH_I, one row per mesh placed in a tree
+    verts_f: np.ndarray  # (V, 3) float64 vertex positions, in their tree's space
+    verts_n: np.ndarray  # (Vn, 3) float64 unit vertex normals of smooth meshes
+    verts_uv: np.ndarray  # (Vt, 2) float64 texture coordinates of meshes that have them
     # Nodes of every bottom-level tree, four-wide (bvh.WideBvh); child and leaf offsets are absolute.
     nodes_f: np.ndarray  # (N, 24) the four child boxes, by coordinate (bvh.WideBvh)
     nodes_i: np.ndarray  # kernels/traverse.NODE_I

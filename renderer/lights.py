@@ -27,12 +27,13 @@ from numba import njit
 
 from .columns import Column, Layout
 from .kernels.rng import light_dim, uniform
-from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
-from .kernels.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
+from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
+from .kernels.vec import cross, dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
-from .shapes import BOX, DISK, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE
+from .shapes import BOX, DISK, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE
 from .shapes.boxes import BOX_HI, BOX_LO
 from .shapes.dispatch import surface
+from .shapes.meshes import TRI_VERTEX
 from .shapes.planar import PLANAR_ALPHA, PLANAR_BETA, PLANAR_CORNER, PLANAR_NORMAL
 from .shapes.spheres import SPHERE_RADIUS, sphere_center
 from .textures import texture_value
@@ -50,12 +51,13 @@ LIGHT_F = Layout("light_f", "float64", [
     Column("cdf", 1, "probability of choosing this light or one before it (the last row is 1)"),
     Column("pmf", 1, "probability of choosing this light: its share of the lights' power"),
     Column("area", 1, "area in the tree's space (0 for a sphere, whose area moves with nothing)"),
-    Column("edge_u", 3, "quad, triangle, disk: the first edge (a disk's first radius), in the tree's space"),
+    Column("edge_u", 3, "quad, triangle, disk, mesh triangle: the first edge (a disk's first radius), in the tree's space"),
     Column("edge_v", 3, "the second edge"),
+    Column("corner", 3, "mesh triangle: its first corner (other kinds read theirs from prims_f)"),
 ])
 LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY = LIGHT_I.offsets("instance", "primitive", "strategy")
-LIGHT_CDF, LIGHT_PMF, LIGHT_AREA_COLUMN, LIGHT_EDGE_U, LIGHT_EDGE_V = LIGHT_F.offsets(
-    "cdf", "pmf", "area", "edge_u", "edge_v")
+LIGHT_CDF, LIGHT_PMF, LIGHT_AREA_COLUMN, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNER = LIGHT_F.offsets(
+    "cdf", "pmf", "area", "edge_u", "edge_v", "corner")
 
 # Below this squared sine of the cone's half-angle, 1 - cos is computed from its series:
 # the difference itself would have lost most of its digits.
@@ -84,14 +86,16 @@ def _edges(prims_f: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 def _tree_area(kind: np.ndarray, prims_f: np.ndarray, rows: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Surface area in the tree's space of each row (spheres: 0, see LIGHT_F.area)."""
-    area = np.zeros(len(rows))
     para = np.linalg.norm(np.cross(u, v), axis=1)
-    area = np.where(kind == QUAD, para, area)
-    area = np.where(kind == TRIANGLE, 0.5 * para, area)
-    area = np.where(kind == DISK, math.pi * para, area)
-    size = prims_f[rows, BOX_HI:BOX_HI + 3] - prims_f[rows, BOX_LO:BOX_LO + 3]
-    box = 2.0 * (size[:, 0] * size[:, 1] + size[:, 1] * size[:, 2] + size[:, 2] * size[:, 0])
-    return np.where(kind == BOX, box, area)
+    area = np.zeros(len(rows))
+    area[kind == QUAD] = para[kind == QUAD]
+    triangles = (kind == TRIANGLE) | (kind == MESH_TRIANGLE)
+    area[triangles] = 0.5 * para[triangles]
+    area[kind == DISK] = math.pi * para[kind == DISK]
+    box = kind == BOX
+    size = prims_f[rows[box], BOX_HI:BOX_HI + 3] - prims_f[rows[box], BOX_LO:BOX_LO + 3]
+    area[box] = 2.0 * (size[:, 0] * size[:, 1] + size[:, 1] * size[:, 2] + size[:, 2] * size[:, 0])
+    return area
 
 
 def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
@@ -100,26 +104,31 @@ def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
             "prim_light": np.full(prims, -1, np.int32)}
 
 
-def flatten(flat, prim_ranges) -> dict[str, np.ndarray]:
+def flatten(flat) -> dict[str, np.ndarray]:
     """The light tables of flat scene `flat`: `light_i`, `light_f`, `inst_light` (each
     instance's first light row) and `prim_light` (an emitting primitive's rank among the
     emitters of its tree, -1 for others): the light of a hit is inst_light + prim_light.
-    `prim_ranges[k]` is the (first, count) of the primitive rows of instance k's tree.
     Power-proportional choice needs the mean emission, which `_powers` measures with the
     kernels' own sampling."""
     emitting = flat.mat_i[flat.prims_i[:, PRIM_MATERIAL], MAT_KIND] == DIFFUSE_LIGHT
-    emitters = np.flatnonzero(emitting)
+    if not emitting.any():
+        return no_lights(len(flat.prims_i), len(flat.inst_i))
     inst_light = np.zeros(len(flat.inst_i), np.int32)
     prim_light = np.full(len(flat.prims_i), -1, np.int32)
     instances, prims = [], []
     rows = 0
-    for k, (first, count) in enumerate(prim_ranges):
+    emitters_of_root: dict[int, np.ndarray] = {}
+    for k, root in enumerate(flat.inst_i[:, INST_ROOT]):
+        if root not in emitters_of_root:
+            # A tree's rows: one run of surfaces and, with a mesh, one of its triangles.
+            in_tree = tree_prims(flat.nodes_i, root)
+            emitters_of_root[root] = in_tree[emitting[in_tree]]
+            prim_light[emitters_of_root[root]] = np.arange(len(emitters_of_root[root]))
+        found = emitters_of_root[root]
         inst_light[k] = rows
-        lo, hi = np.searchsorted(emitters, (first, first + count))
-        prim_light[emitters[lo:hi]] = np.arange(hi - lo)
-        prims.append(emitters[lo:hi])
-        instances.append(np.full(hi - lo, k, np.int64))
-        rows += hi - lo
+        prims.append(found)
+        instances.append(np.full(len(found), k, np.int64))
+        rows += len(found)
     prim = np.concatenate(prims) if prims else np.zeros(0, np.int64)
     inst = np.concatenate(instances) if instances else np.zeros(0, np.int64)
     kind = flat.prims_i[prim, PRIM_KIND]
@@ -130,11 +139,16 @@ def flatten(flat, prim_ranges) -> dict[str, np.ndarray]:
     sphere = (kind == SPHERE) | (kind == MOVING_SPHERE)
     strategy = np.where(sphere & similar, LIGHT_CONE, LIGHT_AREA)
     planar = (kind == QUAD) | (kind == TRIANGLE) | (kind == DISK)
-    u, v = np.zeros((len(prim), 3)), np.zeros((len(prim), 3))
+    u, v, corner = np.zeros((len(prim), 3)), np.zeros((len(prim), 3)), np.zeros((len(prim), 3))
     u[planar], v[planar] = _edges(flat.prims_f, prim[planar])
+    mesh = kind == MESH_TRIANGLE
+    if mesh.any():
+        corners = flat.verts_f[flat.tri_i[prim[mesh] - len(flat.prims_f), TRI_VERTEX:TRI_VERTEX + 3]]  # (M, 3 corners, 3)
+        corner[mesh] = corners[:, 0]
+        u[mesh], v[mesh] = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
     area = _tree_area(kind, flat.prims_f, prim, u, v)
     light_i = LIGHT_I.array(len(prim), instance=inst, primitive=prim, strategy=strategy)
-    light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v)
+    light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v, corner=corner)
     power = _powers(flat, light_i, light_f)
     total = power.sum()
     if not total > 0.0:  # no light sends anything: nothing to sample
@@ -150,8 +164,7 @@ def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:
     """Each light's power up to a common factor: its world area times the luminance of its
     emission averaged over 16 stratified points of its surface."""
     out = np.zeros(len(light_i))
-    light_powers(flat.prims_i, flat.prims_f, flat.inst_i, flat.inst_f, flat.mat_i, flat.tex_i, flat.tex_f,
-                 flat.texels, flat.noise_perm, flat.noise_vec, light_i, light_f, out)
+    light_powers(flat._replace(light_i=light_i, light_f=light_f), out)
     return out
 
 
@@ -254,11 +267,15 @@ def sample_surface(kind, prims_f, prim, light_f, light, time, u1, u2):
             x = (lo[0] + s * sx, lo[1] + u2 * sy, hi[2] if side == 1 else lo[2])
             n = (0.0, 0.0, sign)
         return x, n, 1.0 / (2.0 * half)
-    q = (prims_f[prim, PLANAR_CORNER], prims_f[prim, PLANAR_CORNER + 1], prims_f[prim, PLANAR_CORNER + 2])
-    n = (prims_f[prim, PLANAR_NORMAL], prims_f[prim, PLANAR_NORMAL + 1], prims_f[prim, PLANAR_NORMAL + 2])
     eu = (light_f[light, LIGHT_EDGE_U], light_f[light, LIGHT_EDGE_U + 1], light_f[light, LIGHT_EDGE_U + 2])
     ev = (light_f[light, LIGHT_EDGE_V], light_f[light, LIGHT_EDGE_V + 1], light_f[light, LIGHT_EDGE_V + 2])
-    if kind == TRIANGLE:
+    if kind == MESH_TRIANGLE:
+        q = (light_f[light, LIGHT_CORNER], light_f[light, LIGHT_CORNER + 1], light_f[light, LIGHT_CORNER + 2])
+        n = unit(cross(eu, ev))
+    else:
+        q = (prims_f[prim, PLANAR_CORNER], prims_f[prim, PLANAR_CORNER + 1], prims_f[prim, PLANAR_CORNER + 2])
+        n = (prims_f[prim, PLANAR_NORMAL], prims_f[prim, PLANAR_NORMAL + 1], prims_f[prim, PLANAR_NORMAL + 2])
+    if kind == TRIANGLE or kind == MESH_TRIANGLE:
         su = math.sqrt(u1)
         a, b = 1.0 - su, u2 * su
     elif kind == DISK:
@@ -291,7 +308,8 @@ def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
-    _, _, u, v = surface(kind, S.prims_f, prim, x_tree, neg(n_tree), 0.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
+    # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.
+    _, _, u, v = surface(kind, S, prim, madd(x_tree, n_tree, 1.0), neg(n_tree), 1.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
     return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, x_world)
 
 
@@ -388,6 +406,13 @@ def light_pdf(S, inst, prim, p, x, n, time):
         per_area = 1.0 / (2.0 * (sx * sy + sy * sz + sz * sx))
     else:
         per_area = 1.0 / S.light_f[light, LIGHT_AREA_COLUMN]
+        if kind == MESH_TRIANGLE:
+            # The geometric normal, which the sampler used (a smooth mesh's hit has a blended one).
+            eu = (S.light_f[light, LIGHT_EDGE_U], S.light_f[light, LIGHT_EDGE_U + 1], S.light_f[light, LIGHT_EDGE_U + 2])
+            ev = (S.light_f[light, LIGHT_EDGE_V], S.light_f[light, LIGHT_EDGE_V + 1], S.light_f[light, LIGHT_EDGE_V + 2])
+            n = unit(cross(eu, ev))
+            if moved:
+                n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n))
     if moved:
         per_area *= area_ratio(S.inst_f, inst, n)
     cos_l = abs(dot(n, to)) / math.sqrt(dist2)
@@ -397,28 +422,23 @@ def light_pdf(S, inst, prim, p, x, n, time):
 
 
 @njit(cache=True, error_model="numpy")
-def light_powers(prims_i, prims_f, inst_i, inst_f, mat_i, tex_i, tex_f, texels, noise_perm, noise_vec, light_i, light_f, out):
+def light_powers(S, out):
     """out[l] = world area of light l times the luminance of its mean emission over 4x4 stratified points."""
-    for light in range(light_i.shape[0]):
-        inst = light_i[light, LIGHT_INSTANCE]
-        prim = light_i[light, LIGHT_PRIMITIVE]
-        kind = prims_i[prim, PRIM_KIND]
-        mat = prims_i[prim, PRIM_MATERIAL]
-        moved = inst_i[inst, INST_UNTRANSFORMED] != 1
+    for light in range(S.light_i.shape[0]):
+        inst = S.light_i[light, LIGHT_INSTANCE]
+        prim = S.light_i[light, LIGHT_PRIMITIVE]
+        kind = S.prims_i[prim, PRIM_KIND]
+        moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
         total_l = 0.0
         total_area = 0.0
         for a in range(4):
             for b in range(4):
-                x_tree, n_tree, per_area = sample_surface(kind, prims_f, prim, light_f, light, 0.0, (a + 0.5) / 4.0, (b + 0.5) / 4.0)
-                x, n = x_tree, n_tree
+                x_tree, n_tree, per_area = sample_surface(kind, S.prims_f, prim, S.light_f, light, 0.0, (a + 0.5) / 4.0, (b + 0.5) / 4.0)
+                x = x_tree
                 ratio = 1.0
                 if moved:
-                    x = xform_point(inst_f, inst, INST_WORLD_FROM_OBJECT, x_tree)
-                    n = unit(xform_normal(inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree))
-                    ratio = area_ratio(inst_f, inst, n)
-                _, _, u, v = surface(kind, prims_f, prim, x_tree, neg(n_tree), 0.0, 0.0, mat_i[mat, MAT_READS_UV] != 0)
-                e = texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, mat_i[mat, MAT_TEXTURE], u, v, x)
-                total_l += max(0.0, luminance(e))
+                    x = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, x_tree)
+                    ratio = area_ratio(S.inst_f, inst, unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree)))
+                total_l += max(0.0, luminance(emission(S, prim, x_tree, n_tree, x, 0.0)))
                 total_area += 1.0 / (per_area * ratio)  # world area, as seen from this point's normal
         out[light] = total_area / 16.0 * total_l / 16.0
-

@@ -22,6 +22,21 @@ app = typer.Typer(
 )
 
 
+def _meshes(group, seen: set) -> list:
+    """(path, mesh data) of every mesh reachable from `group`, each group visited once."""
+    from scenefmt.diagnostics import format_path
+
+    out = []
+    for member in group.members:
+        if member.kind == "instance":
+            if id(member.group) not in seen:
+                seen.add(id(member.group))
+                out += _meshes(member.group, seen)
+        elif member.kind == "mesh" and member.mesh is not None:
+            out.append((format_path(member.path), member.mesh))
+    return out
+
+
 def _summary_lines(loaded) -> list[str]:
     from scenefmt.effects import summarize
 
@@ -35,6 +50,12 @@ def _summary_lines(loaded) -> list[str]:
     if summary.instanced_shape_counts:
         inner = ", ".join(f"{n} {k}" for k, n in sorted(summary.instanced_shape_counts.items()))
         lines.append(f"  in groups: {inner}")
+    meshes = _meshes(graph.root, set())
+    if meshes:
+        from scenefmt.meshfile import describe
+
+        for path, mesh in meshes:
+            lines.append(f"  mesh at {path}: {describe(mesh)}")
     defs = ", ".join(f"{n} {k}" for k, n in summary.definition_counts.items() if n)
     if defs:
         lines.append(f"  named: {defs}")

@@ -56,6 +56,9 @@ TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
 HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
+# A mesh triangle at its peak while flattening: vertices, indices and per-triangle rows (about
+# 100 bytes kept, docs/meshes.md) plus the boxes, centroids and build arrays of its tree.
+MESH_TRIANGLE_BYTES = 300
 
 
 def physical_memory() -> int:
@@ -151,8 +154,10 @@ def _sup(v) -> float:
     return max(abs(float(x)) for x in v)
 
 
-def shape_extent_and_size(model) -> tuple[float, float]:
+def shape_extent_and_size(model, mesh=None) -> tuple[float, float]:
     kind = model.type
+    if kind == "mesh":
+        return _mesh_extent_and_size(mesh)
     if kind == "sphere":
         return _sup(model.center) + model.radius, model.radius
     if kind == "moving_sphere":
@@ -171,6 +176,17 @@ def shape_extent_and_size(model) -> tuple[float, float]:
     if kind == "box":
         return max(_sup(model.min), _sup(model.max)), min(hi - lo for lo, hi in zip(model.min, model.max))
     raise TypeError(kind)
+
+
+def _mesh_extent_and_size(mesh) -> tuple[float, float]:
+    """Largest coordinate and smallest triangle size (twice its area over its longest edge)."""
+    import numpy as np
+
+    v, f = mesh.vertices, mesh.faces
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    edges = np.stack([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1), np.linalg.norm(p0 - p2, axis=1)])
+    area2 = np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+    return float(np.abs(v).max()), float(np.min(np.minimum(edges.min(axis=0), area2 / edges.max(axis=0))))
 
 
 def _sub(a, b):
@@ -247,7 +263,7 @@ class SceneBounds:
                 if inner.placements >= self.biggest_instance[0]:
                     self.biggest_instance = (inner.placements, member.path)
             else:
-                extent, size = shape_extent_and_size(member.model)
+                extent, size = shape_extent_and_size(member.model, member.mesh)
                 has_own = True
                 facts.shapes += 1
                 if member.kind in ("sphere", "moving_sphere") and member.transform != ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)):
@@ -313,10 +329,11 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     est.expanded_shapes = root.shapes
     est.instances = root.placements * PLACEMENT_BYTES
     est.parts["instances"] = walk.biggest_instance[1]
-    primitives = 0
+    primitives = triangles = 0
     for group in walk.groups_seen.values():
-        primitives += sum(6 if m.kind == "box" else 1 for m in group.members if m.kind != "instance")
-    est.primitives = primitives * PRIMITIVE_BYTES
+        primitives += sum(6 if m.kind == "box" else 1 for m in group.members if m.kind not in ("instance", "mesh"))
+        triangles += sum(len(m.mesh.faces) for m in group.members if m.kind == "mesh" and m.mesh is not None)
+    est.primitives = primitives * PRIMITIVE_BYTES + triangles * MESH_TRIANGLE_BYTES
     est.parts["shapes and trees"] = ("shapes",)
     return est
 

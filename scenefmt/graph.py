@@ -22,7 +22,7 @@ from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
 from .scene import Camera, Image, Scene, Shutter, SkyBackground, SolidBackground
-from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, MovingSphere, Quad, Sphere, Triangle
+from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
 
 MAX_INSTANCE_NESTING = 16
@@ -73,11 +73,12 @@ class ShapeNode:
     """A primitive shape with its material, optional interior medium, and `world_from_object` map
     (relative to the group it belongs to)."""
 
-    model: Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box]
+    model: Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box, Mesh]
     path: tuple
     material: Optional[MaterialNode]
     interior: Optional[MediumNode]
     transform: Affine
+    mesh: Optional[object] = None  # a mesh's checked scenefmt.meshfile.MeshData (read once, here)
 
     @property
     def kind(self) -> str:
@@ -171,6 +172,7 @@ class _Resolver:
         self.all_media: list[MediumNode] = []
         self._texture_stack: list[str] = []
         self._group_stack: list[str] = []
+        self.mesh_warnings: list[Diagnostic] = []
 
     # --- reporting -----------------------------------------------------------------------------
 
@@ -379,7 +381,51 @@ class _Resolver:
         interior = None
         if isinstance(model, ClosedShapeBase) and model.interior is not None:
             interior = self.medium_slot(model.interior, path + ("interior",))
-        return ShapeNode(model, path, material, interior, transform)
+        node = ShapeNode(model, path, material, interior, transform)
+        if isinstance(model, Mesh):
+            node.mesh = self.mesh_data(model, path)
+            if node.mesh is None:
+                return None
+        return node
+
+    def mesh_data(self, model: Mesh, path: tuple):
+        """The mesh's checked data (from its file or inline arrays), or None after reporting why."""
+        from .meshfile import MeshProblem, from_arrays, read_mesh
+
+        if model.file is None:
+            where, name = path + ("faces",), "the inline mesh"
+            try:
+                mesh = from_arrays(model.vertices, model.faces)
+            except MeshProblem as exc:
+                self.error(where, f"{name}: {exc}")
+                return None
+        else:
+            where, name = path + ("file",), f"mesh file '{model.file}'"
+            problem = path_problem(model.file)
+            if problem:
+                self.error(where, f"mesh file {model.file!r}: {problem}")
+                return None
+            base = self.doc.base_dir if self.doc is not None else Path(".")
+            try:
+                resolved = (base / model.file).resolve()
+                exists = resolved.exists()
+            except (OSError, RuntimeError, ValueError) as exc:
+                reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
+                self.error(where, f"{name}: {reason}")
+                return None
+            if not exists:
+                self.error(where, f"{name} not found (looked for {resolved})")
+                return None
+            try:
+                mesh = read_mesh(resolved)
+            except (MeshProblem, FileProblem) as exc:
+                line = getattr(exc, "line", None)
+                self.error(where, f"{name} line {line}: {exc.message}" if line else f"{name}: {exc}")
+                return None
+        if mesh.degenerate:
+            self.mesh_warnings.append(self.warn(
+                where, f"{name}: {mesh.degenerate:,} of its {len(mesh.faces) + mesh.degenerate:,} triangles have zero area and are left out"))
+        return mesh
 
     # --- the whole scene -----------------------------------------------------------------------
 
@@ -422,7 +468,7 @@ class _Resolver:
             materials=self.all_materials,
             media=self.all_media,
             groups=list(self.groups.values()),
-            warnings=warnings,
+            warnings=self.mesh_warnings + warnings,
             source=self.doc.file if self.doc is not None else None,
         )
 

@@ -13,14 +13,14 @@ from .scene import (
     SkyBackground,
     SolidBackground,
 )
-from .shapes import Box, Disk, Group, GroupSlot, Instance, MovingSphere, Quad, Shape, Sphere, Triangle
+from .shapes import Box, Disk, Group, GroupSlot, Instance, Mesh, MovingSphere, Quad, Shape, Sphere, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture, Texture, TextureSlot
 from .transforms import MatrixStep, RotateStep, Rotation, ScaleStep, TransformStep, TranslateStep
 
 __all__ = [
     "FORMAT_VERSION", "Background", "Box", "Camera", "CheckerTexture", "Color", "ConstantMedium", "Dielectric",
     "DiffuseLight", "Disk", "Group", "GroupSlot", "Image", "ImageTexture", "Instance", "Isotropic", "Lambertian",
-    "Material", "MaterialSlot", "MatrixStep", "Medium", "MediumSlot", "Metal", "MovingSphere", "Name", "NoiseTexture",
+    "Material", "MaterialSlot", "MatrixStep", "Mesh", "Medium", "MediumSlot", "Metal", "MovingSphere", "Name", "NoiseTexture",
     "Number", "Quad", "RotateStep", "Rotation", "ScaleStep", "Scene", "Shape", "Shutter", "SkyBackground",
     "SolidBackground", "SolidTexture", "Sphere", "Texture", "TextureSlot", "TransformStep", "TranslateStep",
     "Triangle", "Vec3",

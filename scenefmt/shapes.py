@@ -1,4 +1,4 @@
-"""Shape models: sphere, moving sphere, quad, triangle, disk, box, and instances of groups.
+"""Shape models: sphere, moving sphere, quad, triangle, disk, box, mesh, and instances of groups.
 
 Every shape takes a `material` and an optional `transform`; closed shapes (sphere,
 moving sphere, box) may also hold a participating medium as their `interior`.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, field_validator, model_validator
 
 from .base import Name, Number, StrictModel, Vec3, field_error, slot_kind, vec_cross, vec_length, vec_sub
 from .materials import MaterialSlot
@@ -224,6 +224,128 @@ class Box(ClosedShapeBase):
         return self
 
 
+# Inline meshes: a Python builder may hand numpy arrays; a file gives lists. Both are kept as
+# read-only numpy arrays, so a generated mesh of a million triangles is not a million tuples.
+MAX_INLINE_VERTICES = 50_000_000
+
+
+def _vertex_array(value: Any) -> Any:
+    import numpy as np
+
+    if value is None:
+        return None
+    if isinstance(value, (list, tuple)):
+        for k, item in enumerate(value):
+            if not isinstance(item, (list, tuple)) or len(item) != 3 or any(
+                isinstance(x, bool) or not isinstance(x, (int, float)) for x in item
+            ):
+                raise ValueError(f"vertex {k}: expected a list of 3 numbers [x, y, z], found {item!r}")
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError("expected a list of vertices [x, y, z]") from None
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"expected a list of vertices [x, y, z], found an array of shape {array.shape}")
+    if len(array) > MAX_INLINE_VERTICES:
+        raise ValueError(f"more than {MAX_INLINE_VERTICES:,} vertices")
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        raise ValueError(f"vertex {int(np.argmax(bad))} has a NaN or infinite coordinate")
+    big = np.abs(array) > 1e50
+    if big.any():
+        raise ValueError(f"vertex {int(np.argmax(big.any(axis=1)))} has a coordinate beyond 1e+50")
+    array.setflags(write=False)
+    return array
+
+
+def _face_array(value: Any) -> Any:
+    import numpy as np
+
+    if value is None:
+        return None
+    if isinstance(value, (list, tuple)):
+        for k, face in enumerate(value):
+            if not isinstance(face, (list, tuple)) or len(face) < 3 or any(
+                isinstance(i, bool) or not isinstance(i, int) for i in face
+            ):
+                raise ValueError(f"face {k}: expected a list of at least 3 vertex indices, found {face!r}")
+        if len({len(face) for face in value}) > 1:
+            return tuple(tuple(face) for face in value)  # polygons of several sizes
+    array = np.asarray(value)
+    if array.dtype.kind not in "iu" or array.ndim != 2 or array.shape[1] < 3:
+        raise ValueError(f"expected a list of faces of at least 3 vertex indices, found an array of {array.dtype} {array.shape}")
+    array = array.astype(np.int64)
+    array.setflags(write=False)
+    return array
+
+
+_VERTICES_SCHEMA = {"type": "array", "items": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3}}
+_FACES_SCHEMA = {"type": "array", "items": {"type": "array", "items": {"type": "integer", "minimum": 0}, "minItems": 3}}
+Vertices = Annotated[Any, BeforeValidator(_vertex_array), WithJsonSchema(_VERTICES_SCHEMA)]
+"""A list of points [x, y, z] (a numpy array of shape (V, 3) from Python)."""
+Faces = Annotated[Any, BeforeValidator(_face_array), WithJsonSchema(_FACES_SCHEMA)]
+"""A list of polygons, each a list of at least 3 vertex indices from 0 (a numpy (T, 3) array from Python)."""
+
+
+class Mesh(SurfaceBase):
+    """A triangle mesh, from an OBJ or PLY file or given inline. Faces with more than three
+    corners are cut into triangles; triangles of zero area are dropped (with a warning). With
+    `smooth`, normals are interpolated across each triangle from the file's vertex normals (or,
+    where it has none, from the average of the faces around each vertex). Texture coordinates
+    from the file drive image textures. Each face's front is on the side its corners turn
+    counter-clockwise around.
+
+    ```yaml
+    type: mesh
+    file: bunny.ply
+    smooth: true
+    material: white
+    transform: [{scale: 10}, {translate: [0, 1, 0]}]
+    ```
+    """
+
+    type: Literal["mesh"] = Field("mesh", description="Selects a triangle mesh.")
+    file: Optional[str] = Field(
+        None,
+        min_length=1,
+        max_length=4096,
+        description="OBJ or PLY file (by its suffix, `.obj` or `.ply`), relative to the scene file's folder. "
+        "Give either `file` or `vertices` and `faces`.",
+    )
+    vertices: Vertices = Field(None, description="Inline mesh: the vertex positions, a list of [x, y, z].")
+    faces: Faces = Field(
+        None, description="Inline mesh: the faces, each a list of at least 3 indices into `vertices`, counted from 0."
+    )
+    smooth: bool = Field(False, strict=True, description="Interpolate vertex normals across each triangle (shading only).")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "Mesh":
+        inline = self.vertices is not None or self.faces is not None
+        if self.file is not None and inline:
+            raise field_error("file", "give either `file` or `vertices` and `faces`, not both")
+        if self.file is None and not inline:
+            raise field_error("file", "a mesh needs a `file` or `vertices` and `faces`")
+        if self.file is None:
+            if self.vertices is None:
+                raise field_error("vertices", "an inline mesh needs `vertices` as well as `faces`")
+            if self.faces is None:
+                raise field_error("faces", "an inline mesh needs `faces` as well as `vertices`")
+            n = len(self.vertices)
+            if len(self.faces) == 0:
+                raise field_error("faces", "the mesh has no faces")
+            for k, face in enumerate(self.faces if isinstance(self.faces, tuple) else ()):
+                for i in face:
+                    if not 0 <= i < n:
+                        raise field_error("faces", f"face {k} refers to vertex {i}, but there are {n} (indices count from 0)")
+            if not isinstance(self.faces, tuple):
+                bad = (self.faces < 0) | (self.faces >= n)
+                if bad.any():
+                    k = int(bad.any(axis=1).argmax())
+                    i = int(self.faces[k][bad[k]][0])
+                    raise field_error("faces", f"face {k} refers to vertex {i}, but there are {n} (indices count from 0)")
+        return self
+
+
 class Group(StrictModel):
     """A set of shapes defined once and placed any number of times by `instance` shapes.
 
@@ -254,7 +376,7 @@ class Instance(StrictModel):
 
 
 Shape = Annotated[
-    Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box, Instance],
+    Union[Sphere, MovingSphere, Quad, Triangle, Disk, Box, Mesh, Instance],
     Field(discriminator="type"),
 ]
 """Any shape, chosen by its `type`."""
@@ -269,7 +391,7 @@ GroupSlot = Annotated[
 ]
 """The name of a group under `groups:`, or an inline group."""
 
-SHAPE_CLASSES = (Sphere, MovingSphere, Quad, Triangle, Disk, Box, Instance)
+SHAPE_CLASSES = (Sphere, MovingSphere, Quad, Triangle, Disk, Box, Mesh, Instance)
 
 Group.model_rebuild()
 Instance.model_rebuild()

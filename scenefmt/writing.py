@@ -43,10 +43,12 @@ def to_data(value: Any) -> Any:
             info = fields[name]
             current = getattr(value, name)
             default = field_default(info)
-            if default is not PydanticUndefined and current == default and name not in value.model_fields_set:
+            if default is not PydanticUndefined and _same(current, default) and name not in value.model_fields_set:
                 continue
             out[name] = to_data(current)
         return out
+    if hasattr(value, "tolist") and hasattr(value, "ndim"):  # a numpy array (an inline mesh)
+        return value.tolist()
     if isinstance(value, dict):
         return {k: to_data(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -54,6 +56,12 @@ def to_data(value: Any) -> Any:
     if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
         return int(value)
     return value
+
+
+def _same(current: Any, default: Any) -> bool:
+    if current is None or default is None or hasattr(current, "ndim"):
+        return current is default
+    return current == default
 
 
 class _SceneDumper(yaml.SafeDumper):

@@ -53,7 +53,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         rays += 1
         t, prim, inst = intersect_scene(
             S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
-            o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
+            S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
             bg = background(S.background, d)
@@ -77,11 +77,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             if INSTANCES and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
                 oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
                 dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-                po, no, u, v = surface(prim_kind, S.prims_f, prim, oo, dd, t, time, want_uv)
+                po, no, u, v = surface(prim_kind, S, prim, oo, dd, t, time, want_uv)
                 p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
                 n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
             else:
-                p, n, u, v = surface(prim_kind, S.prims_f, prim, o, d, t, time, want_uv)
+                p, n, u, v = surface(prim_kind, S, prim, o, d, t, time, want_uv)
             front = dot(d, n) < 0.0
             n_front = n if front else neg(n)
         tex = S.mat_i[mat, MAT_TEXTURE]

@@ -33,7 +33,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
         else:
             t, prim, inst = intersect_scene(
                 S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
-                o, d, tmin, math.inf, time, key, 0, stack, tstack,
+                S.tri_i, S.verts_f, o, d, tmin, math.inf, time, key, 0, stack, tstack,
             )
         if prim < 0:
             continue
@@ -42,7 +42,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
             continue
         oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
         dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-        po, no, u, v = surface(S.prims_i[prim, PRIM_KIND], S.prims_f, prim, oo, dd, t, time, True)
+        po, no, u, v = surface(S.prims_i[prim, PRIM_KIND], S, prim, oo, dd, t, time, True)
         p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
         nw = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
         for q in range(3):

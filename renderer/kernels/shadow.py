@@ -13,8 +13,9 @@ from numba import njit
 
 from ..kernel_flags import INSTANCES, MEDIA
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
-from ..shapes import MEDIUM, PRIM_KIND
+from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
+from ..shapes.meshes import hit_mesh_triangle, ray_shear
 from .simd import slab4
 from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT,
                        TLAS_NEXT, at, inverse_direction, slab)
@@ -32,12 +33,14 @@ def push_child(stack_i, sp, nodes_i, node, c, t):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmax, time, stack):
+def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, root, o, d, tmax, time, stack):
     """Optical depth of the media of the wide tree at `root` along o + t d for t in (0, tmax), or
     inf when a surface lies there. `stack` is intersect_tree's (its node column is reused)."""
     _, stack_i, _ = stack
     inv = inverse_direction(d)
     inv_a = 1.0 / dot(d, d)
+    shear = ray_shear(d)
+    first_triangle = prims_f.shape[0]
     depth = 0.0
     stack_i[0, 0], stack_i[0, 1] = root, 0
     sp = 1
@@ -60,6 +63,9 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tma
                 t0, t1 = max(enter, 0.0), min(leave, tmax)
                 if t0 < t1:
                     depth += (t1 - t0) * length(d) / -prims_f[prim, MEDIUM_NEG_INV_DENSITY]
+            elif kind == MESH_TRIANGLE:
+                if hit_mesh_triangle(tri_i, verts_f, at(prim - first_triangle), o, shear, 0.0, tmax) < INF:
+                    return INF
             elif hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, 0.0, tmax, time) < INF:
                 return INF
     return depth
@@ -73,7 +79,7 @@ def transmittance(S, o, d, tmax, time, stack, tstack):
     if n_inst == 0:
         return 1.0
     if not INSTANCES or (n_inst == 1 and S.inst_i[0, INST_UNTRANSFORMED] == 1):
-        depth = tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.inst_i[0, INST_ROOT],
+        depth = tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, S.inst_i[0, INST_ROOT],
                            o, d, tmax, time, stack)
         return math.exp(-depth) if depth < INF else 0.0
     depth = 0.0
@@ -94,7 +100,8 @@ def transmittance(S, o, d, tmax, time, stack, tstack):
                 else:
                     oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
                     dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-                depth += tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.inst_i[inst, INST_ROOT],
+                depth += tree_depth(S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f, S.tri_i, S.verts_f,
+                                    S.inst_i[inst, INST_ROOT],
                                     oo, dd, tmax, time, stack)
                 if depth == INF:
                     return 0.0

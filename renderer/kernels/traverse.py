@@ -9,13 +9,15 @@ tested after the surfaces of a tree.
 
 import math
 
+import numpy as np
 from numba import njit, uint64
 
 from ..columns import Column, Layout
 from ..kernel_flags import INSTANCES, MEDIA
 from ..media import medium_hit
-from ..shapes import MEDIUM, PRIM_KIND
+from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
+from ..shapes.meshes import hit_mesh_triangle, ray_shear
 from .simd import slab4
 from .vec import dot, xform_point, xform_vector
 
@@ -135,19 +137,23 @@ def push_sorted(stack_t, stack_i, base, sp, t, code, count):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d, tmin, tmax, time, key, bounce, inst, stack):
+def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, root, o, d, tmin, tmax, time, key, bounce,
+                   inst, stack):
     """Closest primitive of the wide tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
 
     Each step tests the four child boxes of a node at once (simd.slab4), goes on to the nearest
     the ray meets and pushes the others, nearest on top. `stack` holds three arrays: entry
     distances, (node or first primitive, primitive count), and room for the media met, which
     are tested after the surfaces. A popped entry is skipped without another test when a
-    nearer hit has been found since it was pushed.
+    nearer hit has been found since it was pushed. Mesh triangles (rows from P = the number
+    of prims_f rows on) are tested in the ray's sheared frame (shapes/meshes.py).
     """
     stack_t, stack_i, deferred = stack
     n_deferred = 0
     inv = inverse_direction(d)
     inv_a = 1.0 / dot(d, d)
+    shear = ray_shear(d)
+    first_triangle = prims_f.shape[0]
     best_t, best_prim = tmax, -1
     sp = 0
     node = root
@@ -189,6 +195,8 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
                             n_deferred += 1
                             continue
                         t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
+                    elif kind == MESH_TRIANGLE:
+                        t = hit_mesh_triangle(tri_i, verts_f, at(prim - first_triangle), o, shear, tmin, best_t)
                     else:
                         t = hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, tmin, best_t, time)
                     if t < best_t:
@@ -216,7 +224,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, root, o, d,
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                     o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit in the scene: (t, prim, instance); prim -1 if the ray escapes."""
     n_inst = inst_i.shape[0]
@@ -225,15 +233,15 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
     if INSTANCES:
         if n_inst > 1 or inst_i[0, INST_UNTRANSFORMED] != 1:
             return intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
-                                       o, d, tmin, tmax, time, key, bounce, stack, tstack)
+                                       tri_i, verts_f, o, d, tmin, tmax, time, key, bounce, stack, tstack)
     # No instancing at all: one tree in world space.
-    t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[0, INST_ROOT],
+    t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, inst_i[0, INST_ROOT],
                              o, d, tmin, tmax, time, key, bounce, inst_i[0, INST_SERIAL], stack)
     return t, prim, 0 if prim >= 0 else -1
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                         o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit through the top-level tree: each instance's tree in its own space."""
     best_t, best_prim, best_inst = tmax, -1, -1
@@ -252,7 +260,7 @@ def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_
                 else:
                     oo = xform_point(inst_f, inst, INST_OBJECT_FROM_WORLD, o)
                     dd = xform_vector(inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-                t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, inst_i[inst, INST_ROOT],
+                t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, inst_i[inst, INST_ROOT],
                                          oo, dd, tmin, best_t, time, key, bounce, inst_i[inst, INST_SERIAL], stack)
                 if prim >= 0 and t < best_t:
                     best_t, best_prim, best_inst = t, prim, inst
@@ -277,10 +285,12 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
         if S.inst_i[inst, INST_UNTRANSFORMED] == 1:
             oo, dd = o, d
         inv, inv_a = inverse_direction(dd), 1.0 / dot(dd, dd)
-        lo_prim, hi_prim = tree_prim_range(S.nodes_i, S.inst_i[inst, INST_ROOT])
-        for prim in range(lo_prim, hi_prim):
+        shear = ray_shear(dd)
+        for prim in tree_prims(S.nodes_i, S.inst_i[inst, INST_ROOT]):
             kind = S.prims_i[prim, PRIM_KIND]
-            if kind == MEDIUM:
+            if kind == MESH_TRIANGLE:
+                t = hit_mesh_triangle(S.tri_i, S.verts_f, prim - S.prims_f.shape[0], oo, shear, tmin, best_t)
+            elif kind == MEDIUM:
                 t = medium_hit(S.prims_f, S.bnd_i, S.bnd_f, prim, oo, dd, tmin, best_t, time, key, bounce, S.inst_i[inst, INST_SERIAL])
             else:
                 t = hit_primitive(kind, S.prims_f, prim, oo, dd, inv, inv_a, tmin, best_t, time)
@@ -290,17 +300,20 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
 
 
 @njit(cache=True, error_model="numpy")
-def tree_prim_range(nodes_i, root):
-    """The rows [lo, hi) of the primitives of the wide tree at `root` (they are contiguous)."""
-    lo, hi = 1 << 62, -1
+def tree_prims(nodes_i, root):
+    """The rows of every primitive in the leaves of the wide tree at `root`, in row order (a tree
+    with surfaces and mesh triangles has two runs of rows, not one)."""
+    rows = []
     stack = [root]
     while len(stack) > 0:
         node = stack.pop()
         for c in range(4):
             code, count = nodes_i[node, NODE_CHILD + c], nodes_i[node, NODE_COUNT + c]
             if count > 0:
-                lo = min(lo, code)
-                hi = max(hi, code + count)
+                for prim in range(code, code + count):
+                    rows.append(prim)
             elif count == 0:
                 stack.append(code)
-    return lo, hi
+    out = np.array(rows, np.int64)
+    out.sort()
+    return out

@@ -6,8 +6,9 @@ from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
 from ..kernels.vec import dot, madd, max_abs
-from . import BOX, MOVING_SPHERE, SPHERE, boxes, planar, spheres
+from . import BOX, MESH_TRIANGLE, MOVING_SPHERE, SPHERE, boxes, planar, spheres
 from .boxes import box_surface, hit_box
+from .meshes import mesh_surface
 from .planar import hit_planar, planar_surface
 from .spheres import SPHERE_RADIUS, hit_sphere, sphere_center, sphere_surface
 
@@ -49,12 +50,16 @@ def hit_primitive(kind, data, i, o, d, inv, inv_a, tmin, tmax, time):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def surface(kind, data, i, o, d, t, time, want_uv):
-    """Hit point, unit outward normal and (u, v) of a hit at distance t.
+def surface(kind, S, i, o, d, t, time, want_uv):
+    """Hit point, unit outward normal and (u, v) of a hit at distance t on primitive row i of
+    the flat scene S.
 
     (u, v) is (0, 0) unless `want_uv`: only image textures read it, and on a sphere it costs
     an arc cosine and an arc tangent.
     """
+    if kind == MESH_TRIANGLE:
+        return mesh_surface(S.tri_i, S.mesh_i, S.verts_f, S.verts_n, S.verts_uv, i - S.prims_f.shape[0], o, d, want_uv)
+    data = S.prims_f
     p = madd(o, d, t)
     if kind == SPHERE or kind == MOVING_SPHERE:
         return sphere_surface(kind, data, i, p, time, want_uv)

@@ -9,6 +9,7 @@ from pydantic import BaseModel
 
 from .. import scene as _scene_module
 from ..base import Color, Name, Vec3
+from ..shapes import Faces, Vertices
 from ..materials import MaterialSlot
 from ..media import MediumSlot
 from ..shapes import GroupSlot
@@ -27,6 +28,8 @@ ALIAS_WORDING: list[tuple[Any, str]] = [
     (GroupSlot, "group name or [group](#groups)"),
     (Transform, "list of [transform steps](#transform-steps)"),
     (Vec3, "`[x, y, z]`"),
+    (Vertices, "list of `[x, y, z]`"),
+    (Faces, "list of lists of 3 or more vertex indices (from 0)"),
     (Color, "`[r, g, b]` >= 0"),
     (Name, "name"),
 ]

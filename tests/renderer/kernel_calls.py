@@ -101,16 +101,16 @@ def _stacks():
 def _hit(S, p, d, time, stack, tstack):
     """(prim, inst, point, unit normal) of the first surface along p + t d; prim -1 if none."""
     t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
-                                    S.bnd_i, S.bnd_f, p, d, 0.0, math.inf, time, np.uint64(1), 0, stack, tstack)
+                                    S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, p, d, 0.0, math.inf, time, np.uint64(1), 0, stack, tstack)
     if prim < 0:
         return prim, inst, p, p
     kind = S.prims_i[prim, PRIM_KIND]
     if S.inst_i[inst, INST_UNTRANSFORMED] != 1:
         oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p)
         dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-        po, no, _, _ = surface(kind, S.prims_f, prim, oo, dd, t, time, False)
+        po, no, _, _ = surface(kind, S, prim, oo, dd, t, time, False)
         return prim, inst, xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po), unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
-    x, n, _, _ = surface(kind, S.prims_f, prim, p, d, t, time, False)
+    x, n, _, _ = surface(kind, S, prim, p, d, t, time, False)
     return prim, inst, x, n
 
 

@@ -1,7 +1,7 @@
 """Light sampling: each emitter's sampler against its density, and the integrator that uses them.
 
 For every kind of emitter the format can express (quad, triangle, disk, box, a sphere seen from
-outside and from inside, an ellipsoid, an emitter inside a rotated and scaled instance, a moving
+outside and from inside, an ellipsoid, a smooth mesh, an emitter inside a rotated and scaled instance, a moving
 sphere at a chosen time, a textured emitter), directions drawn by `lights.sample_light` from a
 fixed point are binned on a grid of (1 - cos theta, phi) about the axis to the light, and the
 counts are tested (chi-square, as tests/renderer/test_sampling.py does for BSDFs) against the
@@ -42,6 +42,9 @@ CASES = [
     ("instanced quad", "groups: {panel: {shapes: [{type: quad, q: [-1, 0, -1], u: [2, 0, 0], v: [0, 0, 2], material: lamp}]}}\n"
      "shapes: [{type: instance, group: panel, transform: [{scale: [0.7, 1, 1.3]}, {rotate: {axis: [0, 0, 1], degrees: 160}}, {translate: [0.3, 2, 0]}]}]",
      (0.0, 0.0, 0.0), 0.0),
+    ("mesh", "shapes: [{type: mesh, smooth: true, vertices: [[-1, 2, -1], [1, 2.4, -1], [1, 2, 1], [-1, 2.6, 1], [0, 3, 0]],"
+     " faces: [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]], material: lamp, transform: [{rotate: {axis: [1, 0, 0], degrees: 180}}, {translate: [0, 5, 0]}]}]",
+     (0.1, 0.0, 0.2), 0.0),
     ("moving sphere", "shutter: {open: 0, close: 1}\nshapes: [{type: moving_sphere, center0: [0, 2, 0], center1: [1, 2.5, 0], radius: 0.6, material: lamp}]",
      (0.0, 0.0, 0.0), 0.7),
 ]

@@ -4,7 +4,8 @@
                                      [--ref-spp 1024] [--mitsuba]
 
 For each scene at the given width: a converged reference (the default integrator at --ref-spp
-samples per pixel, another seed; cached in benchmarks/.cache/), then each integrator rendered
+samples per pixel, another seed; cached in benchmarks/.cache/; its own noise is taken out of
+the errors), then each integrator rendered
 for the same wall time, side by side in this process. Printed per integrator: samples per pixel
 reached, rays per second (shadow rays included), seconds per sample, the RMS error against the
 reference with the pixels that see a light directly left out (their value is the light's, the
@@ -42,25 +43,31 @@ def load_graph(stem: str, width: int):
     return with_width(load(ROOT / "scenes" / f"{stem}.yaml").graph, width)
 
 
-def reference(stem: str, graph, width: int, spp: int) -> np.ndarray:
+def reference(stem: str, graph, width: int, spp: int) -> tuple[np.ndarray, np.ndarray]:
+    """The reference image and the variance of each of its pixel means (its own noise)."""
     from renderer.compile import with_integrator
     from renderer.render import render
 
     CACHE.mkdir(exist_ok=True)
-    path = CACHE / f"{stem}-{width}-{spp}.npy"
+    path = CACHE / f"{stem}-{width}-{spp}.npz"
     if path.exists():
-        return np.load(path)
+        saved = np.load(path)
+        return saved["mean"], saved["var"]
     t0 = time.perf_counter()
-    result = render(with_integrator(graph, "mis"), samples=spp, seed=9001)
-    image = result.film.mean()
-    np.save(path, image)
+    film = render(with_integrator(graph, "mis"), samples=spp, seed=9001).film
+    mean = film.mean()
+    var = np.maximum(film.total_sq / film.samples - mean * mean, 0.0) / (film.samples - 1)
+    np.savez(path, mean=mean, var=var)
     print(f"  reference {stem}: {spp} spp in {time.perf_counter() - t0:.0f} s (cached in {path})", flush=True)
-    return image
+    return mean, var
 
 
-def error(image: np.ndarray, ref: np.ndarray, keep: np.ndarray) -> float:
-    """RMS error over the kept pixels (all channels)."""
-    return float(np.sqrt(np.mean((image[keep] - ref[keep]) ** 2)))
+def error(image: np.ndarray, ref: tuple[np.ndarray, np.ndarray], keep: np.ndarray) -> float:
+    """RMS error over the kept pixels (all channels), less the reference's own noise: the
+    expected squared difference is the image's squared error plus the reference's variance."""
+    mean, var = ref
+    mse = np.mean((image[keep] - mean[keep]) ** 2) - np.mean(var[keep])
+    return float(np.sqrt(max(mse, 0.0)))
 
 
 def equal_time(graph, integrator: str, seconds: float):
@@ -179,7 +186,7 @@ def main(argv=None) -> int:
     for stem in args.scenes.split(","):
         graph = load_graph(stem, args.width)
         ref = reference(stem, graph, args.width, args.ref_spp)
-        keep = ref.max(axis=2) <= 1.0  # leave out pixels that see a light (or a bright sky) directly
+        keep = ref[0].max(axis=2) <= 1.0  # leave out pixels that see a light (or a bright sky) directly
         print(f"\n{stem} ({graph.image.width}x{graph.image.pixel_height}, {np.mean(~keep):.1%} of pixels see a light):")
         print(f"  {'integrator':10} {'spp':>6} {'s':>6} {'Mrays/s':>8} {'s/spp':>7} {'RMSE':>8} {'noise':>7}  "
               + "  ".join(f"spp,s to {100 * t:g}%" for t in TARGETS))

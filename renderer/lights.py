@@ -41,11 +41,12 @@ from .textures import texture_value
 # How a light's points are drawn.
 LIGHT_AREA = 0  # uniform on the surface
 LIGHT_CONE = 1  # a sphere under a similarity: uniform in the cone it subtends where that exists
+LIGHT_RECTANGLE = 2  # a rectangular quad under a similarity: uniform in the solid angle it subtends
 
 LIGHT_I = Layout("light_i", "int32", [
     Column("instance", 1, "row of inst_i that places the light's tree"),
     Column("primitive", 1, "row of prims_i of the emitting primitive"),
-    Column("strategy", 1, "LIGHT_AREA or LIGHT_CONE"),
+    Column("strategy", 1, "LIGHT_AREA, LIGHT_CONE or LIGHT_RECTANGLE"),
 ])
 LIGHT_F = Layout("light_f", "float64", [
     Column("cdf", 1, "probability of choosing this light or one before it (the last row is 1)"),
@@ -62,6 +63,9 @@ LIGHT_CDF, LIGHT_PMF, LIGHT_AREA_COLUMN, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNE
 # Below this squared sine of the cone's half-angle, 1 - cos is computed from its series:
 # the difference itself would have lost most of its digits.
 SMALL_CONE = 1e-4
+# A rectangle subtending less than this solid angle is sampled by area: its spherical sampling
+# would lose digits to the arc cosines, and area sampling is nearly uniform in angle there anyway.
+SMALL_RECTANGLE = 1e-3
 # Lights met at less than this |cosine| are skipped: they send next to nothing, and the solid
 # angle density would be huge and inexact.
 GRAZING = 1e-10
@@ -137,10 +141,11 @@ def flatten(flat) -> dict[str, np.ndarray]:
     scale2 = np.trace(gram, axis1=1, axis2=2) / 3.0
     similar = np.all(np.abs(gram - scale2[:, None, None] * np.eye(3)) <= 1e-9 * scale2[:, None, None], axis=(1, 2))
     sphere = (kind == SPHERE) | (kind == MOVING_SPHERE)
-    strategy = np.where(sphere & similar, LIGHT_CONE, LIGHT_AREA)
     planar = (kind == QUAD) | (kind == TRIANGLE) | (kind == DISK)
     u, v, corner = np.zeros((len(prim), 3)), np.zeros((len(prim), 3)), np.zeros((len(prim), 3))
     u[planar], v[planar] = _edges(flat.prims_f, prim[planar])
+    square = np.abs(np.einsum("ij,ij->i", u, v)) <= 1e-9 * np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1)
+    strategy = np.where(sphere & similar, LIGHT_CONE, np.where((kind == QUAD) & square & similar, LIGHT_RECTANGLE, LIGHT_AREA))
     mesh = kind == MESH_TRIANGLE
     if mesh.any():
         corners = flat.verts_f[flat.tri_i[prim[mesh] - len(flat.prims_f), TRI_VERTEX:TRI_VERTEX + 3]]  # (M, 3 corners, 3)
@@ -228,6 +233,66 @@ def sample_cone(p, c, r, dist2, u1, u2):
     n = (ca * e1[0] + sa * e2[0] + cos_a * axis[0], ca * e1[1] + sa * e2[1] + cos_a * axis[1],
          ca * e1[2] + sa * e2[2] + cos_a * axis[2])
     return madd(c, n, r), n, 1.0 / (2.0 * math.pi * one_minus)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def rectangle_frame(q, eu, ev, p):
+    """The rectangle (corner q, perpendicular edges eu, ev) as seen from p: its unit axes x, y, z
+    (z pointing away from p's side), the coordinates x0 <= x1, y0 <= y1 and z0 <= 0 of its
+    edges relative to p, the solid angle it subtends, and the terms the sampler needs."""
+    lx, ly = math.sqrt(dot(eu, eu)), math.sqrt(dot(ev, ev))
+    x, y = scale(eu, 1.0 / lx), scale(ev, 1.0 / ly)
+    z = cross(x, y)
+    rel = sub(q, p)
+    z0 = dot(rel, z)
+    if z0 > 0.0:
+        z, z0 = neg(z), -z0
+    x0, y0 = dot(rel, x), dot(rel, y)
+    x1, y1 = x0 + lx, y0 + ly
+    # The normals of the four planes through p and each edge, and the angles between them.
+    n0 = unit(cross((x0, y0, z0), (x1, y0, z0)))
+    n1 = unit(cross((x1, y0, z0), (x1, y1, z0)))
+    n2 = unit(cross((x1, y1, z0), (x0, y1, z0)))
+    n3 = unit(cross((x0, y1, z0), (x0, y0, z0)))
+    g0 = math.acos(min(1.0, max(-1.0, -dot(n0, n1))))
+    g1 = math.acos(min(1.0, max(-1.0, -dot(n1, n2))))
+    g2 = math.acos(min(1.0, max(-1.0, -dot(n2, n3))))
+    g3 = math.acos(min(1.0, max(-1.0, -dot(n3, n0))))
+    k = 2.0 * math.pi - g2 - g3
+    solid = g0 + g1 - k
+    return x, y, z, x0, x1, y0, y1, z0, solid, k, n0[2], n2[2]
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_rectangle(p, frame, u1, u2):
+    """A point of the rectangle whose direction from p is uniform in the solid angle it subtends
+    (the spherical rectangle of Urena, Fajardo and King, 2013): u1 picks the x at which a
+    plane through p cuts off that share of the solid angle, u2 the height on that line."""
+    x, y, z, x0, x1, y0, y1, z0, solid, k, b0, b1 = frame
+    au = u1 * solid + k
+    fu = (math.cos(au) * b0 - b1) / math.sin(au)
+    cu = math.copysign(1.0, fu) / math.sqrt(fu * fu + b0 * b0)
+    cu = min(1.0, max(-1.0, cu))
+    xu = -(cu * z0) / math.sqrt(max(1e-300, 1.0 - cu * cu))
+    xu = min(x1, max(x0, xu))
+    d = math.sqrt(xu * xu + z0 * z0)
+    h0 = y0 / math.sqrt(d * d + y0 * y0)
+    h1 = y1 / math.sqrt(d * d + y1 * y1)
+    hv = h0 + u2 * (h1 - h0)
+    hv2 = hv * hv
+    yv = (hv * d) / math.sqrt(1.0 - hv2) if hv2 < 1.0 - 1e-12 else y1
+    yv = min(y1, max(y0, yv))
+    return (p[0] + xu * x[0] + yv * y[0] + z0 * z[0], p[1] + xu * x[1] + yv * y[1] + z0 * z[1],
+            p[2] + xu * x[2] + yv * y[2] + z0 * z[2])
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def light_rectangle(S, light, prim, p_tree):
+    """The rectangle frame of light row `light` from p (tree space)."""
+    q = (S.prims_f[prim, PLANAR_CORNER], S.prims_f[prim, PLANAR_CORNER + 1], S.prims_f[prim, PLANAR_CORNER + 2])
+    eu = (S.light_f[light, LIGHT_EDGE_U], S.light_f[light, LIGHT_EDGE_U + 1], S.light_f[light, LIGHT_EDGE_U + 2])
+    ev = (S.light_f[light, LIGHT_EDGE_V], S.light_f[light, LIGHT_EDGE_V + 1], S.light_f[light, LIGHT_EDGE_V + 2])
+    return rectangle_frame(q, eu, ev, p_tree)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -339,15 +404,23 @@ def sample_light(S, p, time, key, bounce):
     kind = S.prims_i[prim, PRIM_KIND]
     moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
     p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
-    cone = False
-    if S.light_i[light, LIGHT_STRATEGY] == LIGHT_CONE:
+    cone = False  # the density below is per solid angle already (a cone or a spherical rectangle)
+    strategy = S.light_i[light, LIGHT_STRATEGY]
+    if strategy == LIGHT_CONE:
         c = sphere_center(kind, S.prims_f, prim, time)
         r = S.prims_f[prim, SPHERE_RADIUS]
         rel = sub(p_tree, c)
         dist2 = dot(rel, rel)
         cone = dist2 > r * r * (1.0 + 1e-9)
-    if cone:
+    elif strategy == LIGHT_RECTANGLE:
+        frame = light_rectangle(S, light, prim, p_tree)
+        cone = frame[8] > SMALL_RECTANGLE
+    if cone and strategy == LIGHT_CONE:
         x_tree, n_tree, pdf = sample_cone(p_tree, c, r, dist2, u1, u2)
+    elif cone:
+        x_tree = sample_rectangle(p_tree, frame, u1, u2)
+        n_tree = (S.prims_f[prim, PLANAR_NORMAL], S.prims_f[prim, PLANAR_NORMAL + 1], S.prims_f[prim, PLANAR_NORMAL + 2])
+        pdf = 1.0 / frame[8]
     else:
         x_tree, n_tree, pdf = sample_surface(kind, S.prims_f, prim, S.light_f, light, time, u1, u2)
     if moved:
@@ -387,7 +460,13 @@ def light_pdf(S, inst, prim, p, x, n, time):
     pmf = S.light_f[light, LIGHT_PMF]
     moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
     kind = S.prims_i[prim, PRIM_KIND]
-    if S.light_i[light, LIGHT_STRATEGY] == LIGHT_CONE:
+    strategy = S.light_i[light, LIGHT_STRATEGY]
+    if strategy == LIGHT_RECTANGLE:
+        p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+        solid = light_rectangle(S, light, prim, p_tree)[8]
+        if solid > SMALL_RECTANGLE:
+            return pmf / solid
+    if strategy == LIGHT_CONE:
         p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
         c = sphere_center(kind, S.prims_f, prim, time)
         r = S.prims_f[prim, SPHERE_RADIUS]

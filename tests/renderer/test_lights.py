@@ -32,6 +32,11 @@ LIGHT = "materials: {lamp: {type: diffuse_light, emit: [4, 3, 2]}, white: {type:
 # (name, shapes and groups YAML, shading point, time)
 CASES = [
     ("quad", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0, 0.5, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
+    ("parallelogram", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0.6, 0.4, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
+    ("close rectangle", "shapes: [{type: quad, q: [-3, 0.05, -2], u: [6, 0, 0], v: [0, 0, 4], material: lamp}]", (0.3, 0.0, 0.2), 0.0),
+    ("rotated rectangle", "groups: {panel: {shapes: [{type: quad, q: [-1, 0, -1], u: [2, 0, 0], v: [0, 0, 1.5], material: lamp}]}}\n"
+     "shapes: [{type: instance, group: panel, transform: [{scale: 0.8}, {rotate: {axis: [1, 0, 1], degrees: 150}}, {translate: [0.3, 2, 0]}]}]",
+     (0.0, 0.0, 0.0), 0.0),
     ("triangle", "shapes: [{type: triangle, vertices: [[-1, 2, 0], [1.5, 2.5, 0.3], [0, 1.8, 1.2]], material: lamp}]", (0.0, 0.0, 0.0), 0.0),
     ("disk", "shapes: [{type: disk, center: [0.3, 2, 0], normal: [0.2, -1, 0.3], radius: 0.8, material: lamp}]", (0.0, 0.0, 0.0), 0.0),
     ("box", "shapes: [{type: box, min: [-0.5, 1.5, -0.4], max: [0.7, 2.2, 0.6], material: lamp}]", (0.1, 0.0, 0.2), 0.0),

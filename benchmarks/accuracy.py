@@ -97,6 +97,58 @@ def bvh_study(graph_small):
     return with_bvh.stats.seconds, brute.stats.seconds, same, int(brute_flat.prims_i.shape[0])
 
 
+INTEGRATOR_SCENES = ("cornell_box", "cornell_smoke", "final_scene", "simple_light")
+INTEGRATOR_SPP = (4, 16, 64, 256)
+
+
+def integrator_study(graph_small, result):
+    """(integrator, spp, seconds, error) for both estimators against the scene's reference."""
+    from renderer.compile import compile_scene, with_integrator
+    from renderer.render import render
+
+    rows = []
+    for integrator in ("path", "mis"):
+        g = with_integrator(graph_small, integrator)
+        flat = compile_scene(g)
+        render(g, flat=flat, samples=1)  # kernels loaded before timing
+        for spp in INTEGRATOR_SPP:
+            run = render(g, flat=flat, samples=spp, seed=7)
+            error = rms_relative(run.film.mean(), result["reference"])
+            error = math.sqrt(max(error**2 - result["ref_noise"] ** 2, 0.0))
+            rows.append((integrator, spp, run.stats.seconds, error))
+    return rows
+
+
+def equal_time_ratio(rows) -> float:
+    """Error of `path` over error of `mis` at the time of mis's most samples (path's error moved
+    to that time along the 1/sqrt(seconds) law from its own nearest measurement)."""
+    mis = max((r for r in rows if r[0] == "mis"), key=lambda r: r[1])
+    path = min((r for r in rows if r[0] == "path"), key=lambda r: abs(math.log(r[2] / mis[2])))
+    return path[3] * math.sqrt(path[2] / mis[2]) / mis[3]
+
+
+def plot_integrators(studies, out_dir):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(exist_ok=True)
+    fig, axes = plt.subplots(1, len(studies), figsize=(3.2 * len(studies), 3.2), squeeze=False)
+    for ax, (name, rows) in zip(axes[0], studies.items()):
+        for integrator, style in (("path", "o--"), ("mis", "s-")):
+            pts = [(r[2], r[3]) for r in rows if r[0] == integrator]
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, ms=3, label=integrator)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel("seconds (48 px wide)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0][0].set_ylabel("relative RMS error")
+    axes[0][0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out_dir / "integrators_error_vs_time.png", dpi=90)
+    plt.close(fig)
+
+
 def plot(results, out_dir):
     import matplotlib
 
@@ -176,6 +228,29 @@ def main() -> int:
             lines += ["", "![error against samples and seconds](accuracy/error_vs_spp_and_time.png)"]
         except ImportError:
             lines += ["", "(Plots need matplotlib: `pip install '.[docs]'`.)"]
+    # The two integrators: error against seconds, on the scenes with lights.
+    studies = {name: integrator_study(graphs[name][1], results[name]) for name in INTEGRATOR_SCENES if name in results}
+    if studies:
+        lines += ["", "## Integrators: light sampling against the books' estimator", "",
+                  "The default integrator (`mis`) samples a point on a light at every diffuse or medium vertex and weighs "
+                  "it against the path's own hits (multiple importance sampling); `path` is the books' estimator. Same "
+                  "reference as above (rendered with `mis`; both converge to it). *Ratio* is path's error over mis's at "
+                  f"equal time (mis's time at {INTEGRATOR_SPP[-1]} spp). `benchmarks/integrators.py` measures the same at "
+                  "full size.", "",
+                  "| scene | integrator | " + " | ".join(f"{n} spp: s, error" for n in INTEGRATOR_SPP) + " | ratio |",
+                  "|---|---|" + "---|" * len(INTEGRATOR_SPP) + "---|"]
+        for name, rows in studies.items():
+            ratio = equal_time_ratio(rows)
+            for integrator in ("path", "mis"):
+                cells = [f"{r[2]:.2f}, {r[3]:.4f}" for r in rows if r[0] == integrator]
+                lines.append(f"| {name} | {integrator} | " + " | ".join(cells) + f" | {ratio:.1f} |" if integrator == "mis"
+                             else f"| {name} | {integrator} | " + " | ".join(cells) + " | |")
+        if not args.no_plots:
+            try:
+                plot_integrators(studies, ROOT / "docs" / "accuracy")
+                lines += ["", "![error against seconds, both integrators](accuracy/integrators_error_vs_time.png)"]
+            except ImportError:
+                pass
     # Max depth: bias against time, on two scenes where light bounces a lot.
     lines += ["", "## Max depth: bias against time", "",
               "Cutting paths short loses the light they would have gathered: the image gets darker but renders faster. "

@@ -84,91 +84,70 @@ def equal_time(graph, integrator: str, seconds: float):
 
 
 def mitsuba_cornell(width: int, seconds: float):
-    """Mitsuba 3's path tracer on the Cornell box for `seconds` of wall time: (image, spp, seconds)."""
+    """Mitsuba 3's path tracer on the Cornell box for `seconds` of wall time: (image, spp, seconds, variant)."""
     import mitsuba as mi
 
     variant = "llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb"
     mi.set_variant(variant)
-    from scenefmt.validation import load
+    graph = load_graph("cornell_box", width)
+    cam = graph.camera
 
-    scene = load(ROOT / "scenes" / "cornell_box.yaml").scene
-    cam = scene.camera
+    def affine4(m) -> list:
+        return [list(row) for row in m] + [[0.0, 0.0, 0.0, 1.0]]
 
-    def quad(q, u, v, bsdf=None, emitter=None):
-        q, u, v = np.array(q, float), np.array(u, float), np.array(v, float)
-        n = np.cross(u, v)
-        # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
-        m = np.eye(4)
-        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), q + u / 2 + v / 2
-        shape = {"type": "rectangle", "to_world": mi.ScalarTransform4f(m.tolist())}
-        if bsdf is not None:
-            shape["bsdf"] = bsdf
-        if emitter is not None:
-            shape["emitter"] = emitter
-        return shape
+    def material(node):
+        model = node.model
+        if model.type == "diffuse_light":
+            return "emitter", {"type": "area", "radiance": {"type": "rgb", "value": list(model.emit)}}
+        # Our surfaces scatter on both sides; Mitsuba's diffuse BSDF only on the front.
+        return "bsdf", {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(model.albedo)}}}
 
-    mats = {}
-    for name, material in scene.materials.items():
-        if material.type == "lambertian":
-            mats[name] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(material.albedo)}}
-        elif material.type == "diffuse_light":
-            mats[name] = {"type": "area", "radiance": {"type": "rgb", "value": list(material.emit)}}
     objects = {}
-    for k, shape in enumerate(scene.shapes):
-        mat = scene.materials[shape.material] if isinstance(shape.material, str) else shape.material
-        name = shape.material if isinstance(shape.material, str) else f"m{k}"
-        if shape.type == "quad":
-            if mat.type == "diffuse_light":
-                # One-sided in Mitsuba: face it the way the light shines (down, into the box).
-                u, v = (shape.v, shape.u) if np.cross(shape.u, shape.v)[1] > 0 else (shape.u, shape.v)
-                objects[f"s{k}"] = quad(shape.q, u, v, emitter=mats[name])
-            else:
-                objects[f"s{k}"] = quad(shape.q, shape.u, shape.v, bsdf=mats[name])
-        elif shape.type == "box":
-            lo, hi = np.array(shape.min, float), np.array(shape.max, float)
+    for k, member in enumerate(graph.root.members):
+        model = member.model
+        slot, value = material(member.material)
+        if model.type == "quad":
+            q, u, v = (np.array(x, float) for x in (model.q, model.u, model.v))
+            if slot == "emitter" and np.cross(u, v)[1] > 0:
+                u, v = v, u  # one-sided in Mitsuba: face it the way the lamp shines, down into the box
+            n = np.cross(u, v)
+            # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
+            m = np.eye(4)
+            m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), q + u / 2 + v / 2
+            shape = {"type": "rectangle", "to_world": mi.ScalarTransform4f((np.array(affine4(member.transform)) @ m).tolist())}
+        elif model.type == "box":
+            lo, hi = np.array(model.min, float), np.array(model.max, float)
             m = np.eye(4)
             m[:3, :3] = np.diag((hi - lo) / 2)
             m[:3, 3] = (hi + lo) / 2
-            xf = np.eye(4)
-            for step in shape.transform or []:
-                s = np.eye(4)
-                if getattr(step, "rotate", None) is not None:
-                    axis = np.array(step.rotate.axis, float) / np.linalg.norm(step.rotate.axis)
-                    s[:3, :3] = _rotation(axis, math.radians(step.rotate.degrees))
-                elif getattr(step, "translate", None) is not None:
-                    s[:3, 3] = step.translate
-                xf = s @ xf
-            objects[f"s{k}"] = {"type": "cube", "to_world": mi.ScalarTransform4f((xf @ m).tolist()), "bsdf": mats[name]}
-    height = round(width / float(scene.image.aspect_ratio or 1))
+            shape = {"type": "cube", "to_world": mi.ScalarTransform4f((np.array(affine4(member.transform)) @ m).tolist())}
+        else:
+            raise ValueError(f"the Mitsuba comparison does not convert {model.type}")
+        shape[slot] = value
+        objects[f"s{k}"] = shape
+    image = graph.image
     definition = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": scene.image.max_depth + 1},
+        # Mitsuba counts the camera ray's hit as depth 1 and the emitter hit after max_depth - 1 bounces.
+        "integrator": {"type": "path", "max_depth": image.max_depth + 1},
         "sensor": {
             "type": "perspective", "fov": cam.vfov, "fov_axis": "y",
             "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.look_from), target=list(cam.look_at), up=list(cam.up)),
-            "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "film": {"type": "hdrfilm", "width": image.width, "height": image.pixel_height, "rfilter": {"type": "box"},
+                     "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": 4},
         },
         **objects,
     }
     scene_mi = mi.load_dict(definition)
     mi.render(scene_mi, spp=4)  # compile before the clock starts
-    # Find the sample count that fills the time: a timed probe, then the full render.
     t0 = time.perf_counter()
     mi.render(scene_mi, spp=16, seed=1)
     per_sample = (time.perf_counter() - t0) / 16
     spp = max(1, int(seconds / per_sample))
     t0 = time.perf_counter()
-    image = np.array(mi.render(scene_mi, spp=spp, seed=2))[..., :3]
-    return image, spp, time.perf_counter() - t0, variant
-
-
-def _rotation(axis, angle):
-    x, y, z = axis
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c + x * x * (1 - c), x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
-                     [y * x * (1 - c) + z * s, c + y * y * (1 - c), y * z * (1 - c) - x * s],
-                     [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, c + z * z * (1 - c)]])
+    out = np.array(mi.render(scene_mi, spp=spp, seed=2))[..., :3]
+    return out, spp, time.perf_counter() - t0, variant
 
 
 def main(argv=None) -> int:

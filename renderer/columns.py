@@ -105,7 +105,7 @@ def describe_all(layouts: Iterable[Layout]) -> str:
 
 def declared_layouts() -> list[Layout]:
     """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
-    from . import background, camera, materials, media, textures
+    from . import background, camera, lights, materials, media, textures
     from .kernels import traverse
     from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
@@ -116,6 +116,7 @@ def declared_layouts() -> list[Layout]:
         textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
         traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,
         camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND,
+        lights.LIGHT_I, lights.LIGHT_F,
     ]
 
 

@@ -56,6 +56,9 @@ TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
 HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
+# A light row (renderer/lights.py: 3 integers and 12 doubles) per emitting primitive per placement,
+# with room for the per-primitive index: the light table grows with instancing like placements do.
+LIGHT_BYTES = 128
 # A mesh triangle at its peak while flattening: vertices, indices and per-triangle rows (about
 # 100 bytes kept, docs/meshes.md) plus the boxes, centroids and build arrays of its tree.
 MESH_TRIANGLE_BYTES = 300
@@ -207,6 +210,7 @@ class GroupFacts:
     size: float = math.inf  # smallest size of anything in it
     placements: int = 0  # top-level instances the renderer makes when it places the group
     shapes: int = 0  # shapes after every instance is expanded
+    lights: int = 0  # emitting primitives after every instance is expanded (rows of the light table)
 
 
 @dataclass
@@ -217,16 +221,18 @@ class MemoryEstimate:
     textures: int = 0
     instances: int = 0
     primitives: int = 0
+    lights: int = 0
     placements: int = 0
     expanded_shapes: int = 0
     parts: dict = field(default_factory=dict)  # part -> key path of its biggest cause
 
     @property
     def total(self) -> int:
-        return self.film + self.textures + self.instances + self.primitives
+        return self.film + self.textures + self.instances + self.primitives + self.lights
 
     def describe(self) -> str:
-        shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees")]
+        shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees"),
+                 (self.lights, "lights")]
         return ", ".join(f"{name} {gib(n)}" for n, name in shown if n >= 1 << 20) or "under 1 MiB"
 
 
@@ -259,6 +265,7 @@ class SceneBounds:
                 extent, size = inner.extent, inner.size
                 facts.placements += inner.placements
                 facts.shapes += inner.shapes
+                facts.lights += inner.lights
                 # The outermost instance of the most placements (groups are walked inside out).
                 if inner.placements >= self.biggest_instance[0]:
                     self.biggest_instance = (inner.placements, member.path)
@@ -266,6 +273,9 @@ class SceneBounds:
                 extent, size = shape_extent_and_size(member.model, member.mesh)
                 has_own = True
                 facts.shapes += 1
+                if member.material is not None and member.material.kind == "diffuse_light":
+                    facts.lights += len(member.mesh.faces) if member.kind == "mesh" and member.mesh is not None else (
+                        6 if member.kind == "box" else 1)
                 if member.kind in ("sphere", "moving_sphere") and member.transform != ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)):
                     facts.placements += 1  # an ellipsoid gets a tree and a placement of its own
             placed_extent = stretch.most * extent + stretch.shift
@@ -335,6 +345,8 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
         triangles += sum(len(m.mesh.faces) for m in group.members if m.kind == "mesh" and m.mesh is not None)
     est.primitives = primitives * PRIMITIVE_BYTES + triangles * MESH_TRIANGLE_BYTES
     est.parts["shapes and trees"] = ("shapes",)
+    est.lights = root.lights * LIGHT_BYTES
+    est.parts["lights"] = ("shapes",)
     return est
 
 
@@ -359,7 +371,8 @@ def memory_problems(estimate: MemoryEstimate, diagnostic: Callable[[tuple, str],
     limit = memory_limit()
     if estimate.total <= limit:
         return []
-    parts = {"film": estimate.film, "textures": estimate.textures, "instances": estimate.instances, "shapes and trees": estimate.primitives}
+    parts = {"film": estimate.film, "textures": estimate.textures, "instances": estimate.instances, "shapes and trees": estimate.primitives,
+             "lights": estimate.lights}
     worst = max(parts, key=parts.get)
     return [
         diagnostic(

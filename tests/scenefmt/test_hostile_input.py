@@ -310,3 +310,36 @@ def test_an_image_texture_whose_header_promises_169_megapixels_is_refused(tmp_pa
     (diag,) = excinfo.value.diagnostics
     assert diag.path == ("textures", "t", "file")
     assert "needs about 5.5 GiB (film 1.4 MiB, textures 5.5 GiB), more than the 3.0 GiB allowed on this machine" in diag.message
+
+
+def test_instanced_emitters_count_in_the_memory_estimate():
+    """Every placement of an emitting shape is a row of the light table: 10 x 10 x 10 placements of
+    a group holding two lamps are 2,000 light rows."""
+    from scenefmt.bounds import LIGHT_BYTES, estimate_memory
+    from scenefmt.validation import loads
+
+    text = (
+        "materials: {lamp: {type: diffuse_light, emit: [1, 1, 1]}, grey: {type: lambertian, albedo: [0.5, 0.5, 0.5]}}\n"
+        "groups:\n"
+        "  a: {shapes: [{type: sphere, center: [0, 0, 0], radius: 0.1, material: lamp},"
+        " {type: quad, q: [0, 0, 0], u: [1, 0, 0], v: [0, 1, 0], material: lamp},"
+        " {type: sphere, center: [1, 0, 0], radius: 0.1, material: grey}]}\n"
+        "  b: {shapes: [" + ", ".join(f"{{type: instance, group: a, transform: [{{translate: [{i}, 0, 0]}}]}}" for i in range(10)) + "]}\n"
+        "  c: {shapes: [" + ", ".join(f"{{type: instance, group: b, transform: [{{translate: [0, {i}, 0]}}]}}" for i in range(10)) + "]}\n"
+        "shapes: [" + ", ".join(f"{{type: instance, group: c, transform: [{{translate: [0, 0, {i}]}}]}}" for i in range(10)) + "]\n"
+    )
+    assert estimate_memory(loads(text).graph).lights == 2000 * LIGHT_BYTES
+
+
+@pytest.mark.parametrize("shape", [
+    "{type: quad, q: [0, 0, 0], u: [1, 0, 0], v: [2, 0, 0], material: lamp}",
+    "{type: triangle, vertices: [[0, 0, 0], [1, 1, 1], [2, 2, 2]], material: lamp}",
+    "{type: quad, q: [0, 0, 0], u: [0, 0, 0], v: [0, 1, 0], material: lamp}",
+])
+def test_a_light_of_zero_area_is_refused_at_validation(shape):
+    """Light sampling divides by a light's area: a lamp without one never reaches the renderer."""
+    from scenefmt.diagnostics import SceneError
+    from scenefmt.validation import loads
+
+    with pytest.raises(SceneError):
+        loads("materials: {lamp: {type: diffuse_light, emit: [1, 1, 1]}}\nshapes: [" + shape + "]\n")

@@ -44,6 +44,7 @@ def test_validate_summarises_a_valid_scene(tmp_path):
     assert "motion blur: on (shapes[0] moves, shutter 0..1)" in result.stdout
     assert "defocus: on (camera defocus_angle 0.6, focus distance 10)" in result.stdout
     assert "media: off" in result.stdout
+    assert "integrator mis;" in result.stdout  # the default estimator, named
     assert "checker textures: on (shapes[0] uses one and 1 more)" in result.stdout
     assert "materials.spare: material 'spare' is defined but never used" in result.stderr
 

@@ -81,6 +81,24 @@ def parse_duration(text: str) -> Optional[float]:
     return sum(float(n) * {"h": 3600, "m": 60, "s": 1}[u] for n, u in parts)
 
 
+def budget_text(text: str) -> str:
+    """A --time value as written, with its unit named when it has none: '2' -> '2 s', '1h30m' as is."""
+    import re
+
+    text = text.strip()
+    return f"{text} s" if re.fullmatch(r"\d+(\.\d+)?", text) else text
+
+
+def noise_reached(noise: float, target: float) -> str:
+    """Why a --noise render stopped, with enough digits that the estimate and the target differ
+    ('1.996%' below '2.000%', never '2.00%' below '2.00%')."""
+    for digits in range(2, 7):
+        shown, wanted = f"{100 * noise:.{digits}f}", f"{100 * target:.{digits}f}"
+        if shown != wanted:  # the estimate is at most the target, so it shows as less
+            return f"the estimated noise {shown}% is below the {wanted}% target"
+    return f"the estimated noise has reached the {100 * target:.2f}% target"
+
+
 def fmt_seconds(seconds: float) -> str:
     if seconds < 60:
         return f"{seconds:.1f}s"
@@ -317,9 +335,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
             f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
         )
     if stats.stop_reason == "time":
-        say(f"stopped: the {opts.time_budget} time budget is spent", err=True)
+        say(f"stopped: the {budget_text(opts.time_budget or '')} time budget is spent", err=True)
     elif stats.stop_reason == "noise":
-        say(f"stopped: the estimated noise {100 * stats.noise:.2f}% is below the {100 * opts.noise:.2f}% target", err=True)
+        say(f"stopped: {noise_reached(stats.noise, opts.noise or 0.0)}", err=True)
     elif budgeted and not stats.interrupted:
         say(f"stopped at the cap of {target} samples per pixel before the budget was reached", err=True)
     if stats.bad_samples:

@@ -1,0 +1,47 @@
+"""The messages of `rt render` (rt/render_job.py): budgets, noise targets, resumed states,
+empty scenes, the progress bar's last line and --explain, as a new user reads them."""
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from rt.cli import app
+from rt.render_job import budget_text, noise_reached
+
+runner = CliRunner()
+
+SMALL = """
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40}
+image: {width: 16, aspect_ratio: 2, samples_per_pixel: 4, max_depth: 4, seed: 5}
+materials: {m: {type: lambertian, albedo: [0.6, 0.3, 0.2]}}
+shapes:
+  - {type: sphere, center: [0, -100, 0], radius: 100, material: m}
+  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: m}
+"""
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_a_time_budget_names_its_unit():
+    assert budget_text("2") == "2 s"
+    assert budget_text("2.5") == "2.5 s"
+    assert [budget_text(t) for t in ("30s", "2m", "1h30m", "1.5h")] == ["30s", "2m", "1h30m", "1.5h"]
+
+
+def test_a_noise_target_reached_never_reads_as_equal():
+    assert noise_reached(0.019996, 0.02) == "the estimated noise 1.9996% is below the 2.0000% target"
+    assert noise_reached(0.0199, 0.02) == "the estimated noise 1.99% is below the 2.00% target"
+    assert noise_reached(0.02, 0.02) == "the estimated noise has reached the 2.00% target"
+
+
+@pytest.mark.slow
+def test_a_time_budget_without_unit_is_reported_in_seconds(tmp_path):
+    path = write(tmp_path, "ball.yaml", SMALL)
+    result = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "b.png"), "--time", "1"])
+    assert result.exit_code == 0, result.output
+    assert "stopped: the 1 s time budget is spent" in result.stderr

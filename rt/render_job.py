@@ -203,8 +203,33 @@ class Progress:
         self.noise = noise
         self.tty = sys.stderr.isatty()
         self.last_decile = -1
+        self.shown = (-1, "")  # the samples and noise figure of the last line drawn
 
     def __call__(self, stats) -> None:
+        line, frac = self.line(stats)
+        if self.tty:
+            self.show(line, stats)
+        elif int(frac * 10) > self.last_decile:
+            self.last_decile = int(frac * 10)
+            self.show(line, stats)
+
+    def finish(self, stats) -> None:
+        """Draw the render's final figures: during the render the noise is estimated at most once a
+        second, so the last update can show an older estimate than the summary's, or none."""
+        if self.tty or (stats.samples, self.noise_text(stats)) != self.shown:
+            self.show(self.line(stats)[0], stats)
+
+    def show(self, line: str, stats) -> None:
+        sys.stderr.write("\r" + line if self.tty else line + "\n")
+        sys.stderr.flush()
+        self.shown = (stats.samples, self.noise_text(stats))
+
+    @staticmethod
+    def noise_text(stats) -> str:
+        return f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+
+    def line(self, stats) -> tuple[str, float]:
+        """The progress line for `stats`, and the share of the render done."""
         done = stats.samples
         frac = done / self.total if self.total else 1.0
         # Under a budget, progress is the share of the budget spent: time, or noise (which falls
@@ -216,17 +241,12 @@ class Progress:
         frac = min(frac, 1.0)
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        noise = f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+        noise = self.noise_text(stats)
         line = (
             f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
             f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
         )
-        if self.tty:
-            sys.stderr.write("\r" + line)
-            sys.stderr.flush()
-        elif int(frac * 10) > self.last_decile:
-            self.last_decile = int(frac * 10)
-            sys.stderr.write(line + "\n")
+        return line, frac
 
     def notify(self, message: str) -> None:
         """A line of its own, between progress updates."""
@@ -308,6 +328,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         failure = str(exc)
     else:
         failure = None
+        bar.finish(result.stats)
     finally:
         bar.close()
         signal.signal(signal.SIGINT, previous)

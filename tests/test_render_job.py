@@ -45,3 +45,31 @@ def test_a_time_budget_without_unit_is_reported_in_seconds(tmp_path):
     result = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "b.png"), "--time", "1"])
     assert result.exit_code == 0, result.output
     assert "stopped: the 1 s time budget is spent" in result.stderr
+
+
+def test_the_last_progress_line_shows_the_final_noise(capsys):
+    from renderer.render import RenderStats
+    from rt.render_job import Progress
+
+    bar = Progress(8)
+    bar(RenderStats(samples=4, seconds=0.5, rays=1000))  # no estimate yet: once a second at most
+    bar(RenderStats(samples=8, seconds=1.0, rays=2000, noise=0.05))
+    bar.finish(RenderStats(samples=8, seconds=1.0, rays=2000, noise=0.0412))
+    bar.close()
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[-1].endswith("noise 4.12%") and "8/8 spp" in lines[-1]
+    # Nothing new to show: no second line with the same figures.
+    bar.finish(RenderStats(samples=8, seconds=1.1, rays=2000, noise=0.0412))
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.slow
+def test_a_render_ends_its_progress_with_the_noise_of_its_summary(tmp_path):
+    path = write(tmp_path, "ball.yaml", SMALL)
+    result = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "b.png"), "--spp", "6"])
+    assert result.exit_code == 0, result.output
+    (summary,) = [line for line in result.stdout.splitlines() if line.startswith("noise: ")]
+    final = summary.split()[1]  # "noise: 12.34% relative RMS ..."
+    progress = [line for line in result.stderr.splitlines() if line.startswith("[")]
+    assert progress[-1].startswith("[" + "#" * 30 + "] 6/6 spp") and progress[-1].endswith(f"noise {final}")
+

@@ -304,6 +304,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         except (OSError, ValueError, KeyError) as exc:
             raise fail(f"error: --resume: {exc}")
         say(f"resuming {opts.resume}: {film.samples} samples per pixel already rendered", err=True)
+        if film.samples >= target:
+            # A saved state holds sums, which cannot give samples back: say so rather than
+            # write an image with more samples than asked for without a word.
+            asked = f"--spp {opts.spp}" if opts.spp is not None else f"the scene's samples_per_pixel {target}"
+            say(f"warning: --resume {opts.resume} already holds {film.samples} samples per pixel, "
+                f"{'more than' if film.samples > target else 'as many as'} {asked} asks for: nothing more is rendered, "
+                f"and the images hold all {film.samples} (a saved state cannot drop samples)", err=True)
     stop = {"requested": False}
 
     def on_interrupt(signum, _stack_frame):

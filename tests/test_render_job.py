@@ -73,3 +73,17 @@ def test_a_render_ends_its_progress_with_the_noise_of_its_summary(tmp_path):
     progress = [line for line in result.stderr.splitlines() if line.startswith("[")]
     assert progress[-1].startswith("[" + "#" * 30 + "] 6/6 spp") and progress[-1].endswith(f"noise {final}")
 
+
+@pytest.mark.slow
+def test_resuming_a_state_with_more_samples_than_asked_says_so(tmp_path):
+    path = write(tmp_path, "ball.yaml", SMALL)
+    state = tmp_path / "s.npz"
+    first = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "a.png"), "--spp", "6", "--save-state", str(state)])
+    assert first.exit_code == 0, first.output
+    for spp, words in ((["--spp", "2"], "more than --spp 2"), (["--spp", "6"], "as many as --spp 6"),
+                       ([], "more than the scene's samples_per_pixel 4")):
+        again = runner.invoke(app, ["render", str(path), "-o", str(tmp_path / "b.png"), *spp, "--resume", str(state)])
+        assert again.exit_code == 0, again.output
+        assert (f"warning: --resume {state} already holds 6 samples per pixel, {words} asks for: nothing more is "
+                "rendered, and the images hold all 6 (a saved state cannot drop samples)") in again.stderr
+        assert "16x8, 6 spp" in again.stdout

@@ -178,6 +178,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise Stop(1)
     except ValueError as exc:  # input the format cannot check, such as an image that does not decode
         raise fail(f"error: {opts.scene}: {exc}")
+    for diag in loaded.warnings:  # as `rt validate` prints them: an empty scene renders, with a word
+        say(str(diag), err=True)
     if opts.explain:
         from scenefmt.effects import summarize
 

@@ -87,3 +87,18 @@ def test_resuming_a_state_with_more_samples_than_asked_says_so(tmp_path):
         assert (f"warning: --resume {state} already holds 6 samples per pixel, {words} asks for: nothing more is "
                 "rendered, and the images hold all 6 (a saved state cannot drop samples)") in again.stderr
         assert "16x8, 6 spp" in again.stdout
+
+
+def test_validate_and_render_warn_about_an_empty_scene(tmp_path, capsys):
+    from rt.render_job import RenderOptions, prepare
+
+    empty = write(tmp_path, "empty.yaml", "")
+    result = runner.invoke(app, ["validate", str(empty)])
+    assert result.exit_code == 0, result.output
+    assert (f"{empty}:1:1: warning: (top level): the scene is empty: the image will show only the background "
+            "(write shapes: [] if that is meant)") in result.stderr
+    no_shapes = write(tmp_path, "bare.yaml", "# a sky\ncamera: {vfov: 30}\n")
+    prepare(RenderOptions(scene=no_shapes, output=tmp_path / "bare.png"))  # what `rt render` reads before rendering
+    assert (f"{no_shapes}:2:1: warning: (top level): the scene has no shapes key: the image will show only the "
+            "background (write shapes: [] if that is meant)") in capsys.readouterr().err
+

@@ -183,6 +183,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if opts.explain:
         from scenefmt.effects import summarize
 
+        say("explain: the effects this scene uses and the kernel that renders it; the render follows "
+            "(rt validate lists the effects without rendering)", err=True)
         say(f"integrator: {graph.image.integrator}", err=True)
         for effect in summarize(graph).effects:
             say(f"{effect}", err=True)

@@ -102,3 +102,15 @@ def test_validate_and_render_warn_about_an_empty_scene(tmp_path, capsys):
     assert (f"{no_shapes}:2:1: warning: (top level): the scene has no shapes key: the image will show only the "
             "background (write shapes: [] if that is meant)") in capsys.readouterr().err
 
+
+def test_explain_says_that_the_render_follows(tmp_path, capsys):
+    from rt.render_job import RenderOptions, prepare
+
+    result = runner.invoke(app, ["render", "--help"], env={"COLUMNS": "200", "TERM": "dumb"})
+    text = " ".join(result.stdout.replace("│", " ").split())
+    assert "the kernel chosen, then render as usual (rt validate lists the effects without rendering)" in text
+    path = write(tmp_path, "ball.yaml", SMALL)
+    prepare(RenderOptions(scene=path, output=tmp_path / "ball.png", explain=True))
+    first = capsys.readouterr().err.splitlines()[0]
+    assert first == ("explain: the effects this scene uses and the kernel that renders it; the render follows "
+                     "(rt validate lists the effects without rendering)")

@@ -221,7 +221,9 @@ def render(
         None, "--resume", help="Continue the render saved with --save-state, up to --spp samples in all."
     ),
     explain: bool = typer.Option(
-        False, "--explain", help="Print which effects the scene uses, and the element that switches each on."
+        False, "--explain",
+        help="Print which effects the scene uses, the element that switches each on and the kernel chosen, then render "
+        "as usual (rt validate lists the effects without rendering).",
     ),
     integrator: Optional[str] = typer.Option(
         None, "--integrator",

@@ -81,6 +81,24 @@ def parse_duration(text: str) -> Optional[float]:
     return sum(float(n) * {"h": 3600, "m": 60, "s": 1}[u] for n, u in parts)
 
 
+def budget_text(text: str) -> str:
+    """A --time value as written, with its unit named when it has none: '2' -> '2 s', '1h30m' as is."""
+    import re
+
+    text = text.strip()
+    return f"{text} s" if re.fullmatch(r"\d+(\.\d+)?", text) else text
+
+
+def noise_reached(noise: float, target: float) -> str:
+    """Why a --noise render stopped, with enough digits that the estimate and the target differ
+    ('1.996%' below '2.000%', never '2.00%' below '2.00%')."""
+    for digits in range(2, 7):
+        shown, wanted = f"{100 * noise:.{digits}f}", f"{100 * target:.{digits}f}"
+        if shown != wanted:  # the estimate is at most the target, so it shows as less
+            return f"the estimated noise {shown}% is below the {wanted}% target"
+    return f"the estimated noise has reached the {100 * target:.2f}% target"
+
+
 def fmt_seconds(seconds: float) -> str:
     if seconds < 60:
         return f"{seconds:.1f}s"
@@ -160,9 +178,13 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise Stop(1)
     except ValueError as exc:  # input the format cannot check, such as an image that does not decode
         raise fail(f"error: {opts.scene}: {exc}")
+    for diag in loaded.warnings:  # as `rt validate` prints them: an empty scene renders, with a word
+        say(str(diag), err=True)
     if opts.explain:
         from scenefmt.effects import summarize
 
+        say("explain: the effects this scene uses and the kernel that renders it; the render follows "
+            "(rt validate lists the effects without rendering)", err=True)
         say(f"integrator: {graph.image.integrator}", err=True)
         for effect in summarize(graph).effects:
             say(f"{effect}", err=True)
@@ -185,8 +207,33 @@ class Progress:
         self.noise = noise
         self.tty = sys.stderr.isatty()
         self.last_decile = -1
+        self.shown = (-1, "")  # the samples and noise figure of the last line drawn
 
     def __call__(self, stats) -> None:
+        line, frac = self.line(stats)
+        if self.tty:
+            self.show(line, stats)
+        elif int(frac * 10) > self.last_decile:
+            self.last_decile = int(frac * 10)
+            self.show(line, stats)
+
+    def finish(self, stats) -> None:
+        """Draw the render's final figures: during the render the noise is estimated at most once a
+        second, so the last update can show an older estimate than the summary's, or none."""
+        if self.tty or (stats.samples, self.noise_text(stats)) != self.shown:
+            self.show(self.line(stats)[0], stats)
+
+    def show(self, line: str, stats) -> None:
+        sys.stderr.write("\r" + line if self.tty else line + "\n")
+        sys.stderr.flush()
+        self.shown = (stats.samples, self.noise_text(stats))
+
+    @staticmethod
+    def noise_text(stats) -> str:
+        return f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+
+    def line(self, stats) -> tuple[str, float]:
+        """The progress line for `stats`, and the share of the render done."""
         done = stats.samples
         frac = done / self.total if self.total else 1.0
         # Under a budget, progress is the share of the budget spent: time, or noise (which falls
@@ -198,17 +245,12 @@ class Progress:
         frac = min(frac, 1.0)
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        noise = f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+        noise = self.noise_text(stats)
         line = (
             f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
             f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
         )
-        if self.tty:
-            sys.stderr.write("\r" + line)
-            sys.stderr.flush()
-        elif int(frac * 10) > self.last_decile:
-            self.last_decile = int(frac * 10)
-            sys.stderr.write(line + "\n")
+        return line, frac
 
     def notify(self, message: str) -> None:
         """A line of its own, between progress updates."""
@@ -266,6 +308,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         except (OSError, ValueError, KeyError) as exc:
             raise fail(f"error: --resume: {exc}")
         say(f"resuming {opts.resume}: {film.samples} samples per pixel already rendered", err=True)
+        if film.samples >= target:
+            # A saved state holds sums, which cannot give samples back: say so rather than
+            # write an image with more samples than asked for without a word.
+            asked = f"--spp {opts.spp}" if opts.spp is not None else f"the scene's samples_per_pixel {target}"
+            say(f"warning: --resume {opts.resume} already holds {film.samples} samples per pixel, "
+                f"{'more than' if film.samples > target else 'as many as'} {asked} asks for: nothing more is rendered, "
+                f"and the images hold all {film.samples} (a saved state cannot drop samples)", err=True)
     stop = {"requested": False}
 
     def on_interrupt(signum, _stack_frame):
@@ -290,6 +339,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
         failure = str(exc)
     else:
         failure = None
+        bar.finish(result.stats)
     finally:
         bar.close()
         signal.signal(signal.SIGINT, previous)
@@ -317,9 +367,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
             f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
         )
     if stats.stop_reason == "time":
-        say(f"stopped: the {opts.time_budget} time budget is spent", err=True)
+        say(f"stopped: the {budget_text(opts.time_budget or '')} time budget is spent", err=True)
     elif stats.stop_reason == "noise":
-        say(f"stopped: the estimated noise {100 * stats.noise:.2f}% is below the {100 * opts.noise:.2f}% target", err=True)
+        say(f"stopped: {noise_reached(stats.noise, opts.noise or 0.0)}", err=True)
     elif budgeted and not stats.interrupted:
         say(f"stopped at the cap of {target} samples per pixel before the budget was reached", err=True)
     if stats.bad_samples:

@@ -28,6 +28,8 @@ from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
 MAX_INSTANCE_NESTING = 16
 
 
+NO_SHAPES = "the image will show only the background (write shapes: [] if that is meant)"
+
 @dataclass(eq=False)
 class TextureNode:
     """A texture; `inputs` holds the checker's `even` and `odd` textures."""
@@ -450,6 +452,13 @@ class _Resolver:
                 resolve_one(name)
                 kind = {"textures": "texture", "materials": "material", "media": "medium", "groups": "group"}[section]
                 warnings.append(self.warn((section, name), f"{kind} '{name}' is defined but never used"))
+        if not scene.shapes and "shapes" not in scene.model_fields_set:
+            # Valid, but most likely a mistake (an empty file, a shapes key misplaced): the image
+            # shows the background alone. `shapes: []` says it is meant, as in weekend_sky.yaml.
+            if self.doc is not None and not self.doc.data:
+                warnings.append(self.warn((), f"the scene is empty: {NO_SHAPES}"))
+            else:
+                warnings.append(self.warn((), f"the scene has no shapes key: {NO_SHAPES}"))
         background = scene.background
         if isinstance(background, tuple):
             background = SolidBackground(color=background)

@@ -39,7 +39,9 @@ shapes:
   completion, hover help and live checking in editors that use the YAML language server;
   `rt schema` prints the schema.
 - **Checking.** `rt validate scene.yaml` checks a file without rendering it and reports every
-  problem with its line and column.
+  problem with its line and column. Warnings (printed by `rt render` too) do not stop a render:
+  a definition nothing uses, and a scene with no `shapes` key, such as an empty file (write
+  `shapes: []` for a scene that is only its background).
 - **Includes.** `include: [materials.yaml, parts/room.yaml]` merges the named definitions
   (`textures`, `materials`, `media`, `groups`) and the `shapes` of other files into the scene;
   names are relative to the including file's folder. An included file holds only those sections

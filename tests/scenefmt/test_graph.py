@@ -156,3 +156,20 @@ shapes:
     paths = [p for p, _ in errs]
     # Schema errors and a dangling reference in the valid part, but no echo for 'bad'.
     assert paths == [("camera", "vfov"), ("materials", "bad", "fuzz"), ("shapes", 0, "radius"), ("shapes", 1, "material")]
+
+
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("", [(1, 1, "the scene is empty")]),
+    ("# a comment and nothing else\n", [(1, 1, "the scene is empty")]),
+    ("{}", [(1, 1, "the scene is empty")]),
+    ("# a sky\ncamera: {vfov: 30}\n", [(2, 1, "the scene has no shapes key")]),
+    ("camera: {vfov: 30}\nshapes: []\n", []),  # none, on purpose (weekend_sky.yaml)
+])
+def test_a_scene_without_shapes_is_a_warning_unless_it_says_shapes_empty(text, expected):
+    warnings = [(w.path, w.line, w.column, w.severity, w.message) for w in loads(text, file="s.yaml").warnings]
+    assert warnings == [
+        ((), line, column, "warning", f"{what}: the image will show only the background (write shapes: [] if that is meant)")
+        for line, column, what in expected
+    ]

@@ -256,7 +256,12 @@ class ImageBackground(StrictModel):
     (where the default camera looks), u = 3/4 is +x. That is, the direction of texel (u, v)
     (v = 0 at the top) is (-sin theta sin phi, cos theta, sin theta cos phi) with theta = pi v and
     phi = 2 pi u, so looking at the centre, the image reads left to right as it does on a screen.
-    With `integrator: mis`, the map is importance-sampled by brightness like a light.
+    With `integrator: mis`, the map is importance-sampled by brightness like a light (a shadow ray
+    toward a direction drawn by luminance, weighed against the path's own escape by multiple
+    importance sampling); with `integrator: path` a path finds it only by escaping. Solid and sky
+    backgrounds are never sampled as lights: they are smooth and fill every direction, so the
+    cosine-weighted ray a diffuse surface sends already follows their contribution closely
+    (exactly, for a solid colour), and a shadow ray would add cost, not accuracy.
 
     ```yaml
     type: image

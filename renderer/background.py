@@ -1,8 +1,12 @@
-"""The background: its table, its flattening, and the radiance of a ray that meets nothing."""
+"""The background: its table, its flattening, and the radiance of a ray that meets nothing.
+
+A solid colour and the books' sky are read here; an image background (an environment map) has
+a row here too, and its texels and sampling tables in `environment.py`, which fills the row in.
+"""
 
 from numba import njit
 
-from scenefmt.scene import SkyBackground
+from scenefmt.scene import ImageBackground, SkyBackground
 
 from .columns import Column, Layout
 from .kernel_flags import SKY
@@ -10,22 +14,34 @@ from .kernels.vec import unit
 
 BACKGROUND_SOLID = 0
 BACKGROUND_SKY = 1
+BACKGROUND_IMAGE = 2
 
-_KIND = Column("kind", 1, "BACKGROUND_SOLID or BACKGROUND_SKY")
+_KIND = Column("kind", 1, "BACKGROUND_SOLID, BACKGROUND_SKY or BACKGROUND_IMAGE")
 SOLID_BACKGROUND = Layout("background solid", "float64", [_KIND, Column("color", 3, "linear RGB")], 7)
 SKY_BACKGROUND = Layout("background sky", "float64", [
     _KIND,
     Column("bottom", 3, "linear RGB straight down"),
     Column("top", 3, "linear RGB straight up; the books' blend between them by the direction's y"),
 ])
+IMAGE_BACKGROUND = Layout("background image", "float64", [
+    _KIND,
+    Column("width", 1, "texels across (u, once around +y)"),
+    Column("height", 1, "texels down (v, from straight up to straight down)"),
+    Column("cos_rotate", 1, "cosine of the map's turn about +y"),
+    Column("sin_rotate", 1, "its sine"),
+    Column("choose", 1, "probability that a light sample goes to the map rather than to an area light; 0: never sampled"),
+], 7)
 SOLID_BACKGROUND.shares(SKY_BACKGROUND, "kind")
+SOLID_BACKGROUND.shares(IMAGE_BACKGROUND, "kind")
 BG_KIND, BG_COLOR = SOLID_BACKGROUND.offsets("kind", "color")
 BG_BOTTOM, BG_TOP = SKY_BACKGROUND.offsets("bottom", "top")
 
 
 def flatten(graph) -> list[float]:
-    """The background row of a scene graph."""
+    """The background row of a scene graph (an image's row is completed by environment.flatten)."""
     bg = graph.background
+    if isinstance(bg, ImageBackground):
+        return IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE))
     if isinstance(bg, SkyBackground):
         return SKY_BACKGROUND.row(kind=float(BACKGROUND_SKY), bottom=tuple(map(float, bg.bottom)), top=tuple(map(float, bg.top)))
     return SOLID_BACKGROUND.row(kind=float(BACKGROUND_SOLID), color=tuple(map(float, bg.color)))

@@ -105,7 +105,7 @@ def describe_all(layouts: Iterable[Layout]) -> str:
 
 def declared_layouts() -> list[Layout]:
     """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
-    from . import background, camera, lights, materials, media, textures
+    from . import background, camera, environment, lights, materials, media, textures
     from .kernels import traverse
     from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
@@ -115,7 +115,8 @@ def declared_layouts() -> list[Layout]:
         materials.MATERIAL_I, materials.MATERIAL_F,
         textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
         traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,
-        camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND,
+        camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND, background.IMAGE_BACKGROUND,
+        environment.ENV_ROW_F, environment.ENV_TEXEL_F,
         lights.LIGHT_I, lights.LIGHT_F,
     ]
 

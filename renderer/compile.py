@@ -18,7 +18,7 @@ import numpy as np
 from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
 
-from . import background, camera, lights, materials, media
+from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
@@ -310,8 +310,10 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         camera=np.array(camera.flatten(walk.graph), np.float64),
         background=np.array(background.flatten(walk.graph), np.float64),
         **lights.no_lights(0, 0),
+        **environment.no_environment(),
     )
-    return flat._replace(**lights.flatten(flat))
+    flat = flat._replace(**lights.flatten(flat))
+    return flat._replace(**environment.flatten(flat, walk.graph))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

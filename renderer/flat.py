@@ -54,6 +54,11 @@ class FlatScene(NamedTuple):
     light_f: np.ndarray  # LIGHT_F
     inst_light: np.ndarray  # (I,) int32
     prim_light: np.ndarray  # (P,) int32, -1 where the primitive does not emit
+    # Environment map (environment.py): its radiance by texel, row 0 at the top, and the tables
+    # that sample it by brightness; empty unless the background is an image.
+    env_rgb: np.ndarray  # (H * W, 3) float32 linear RGB, strength applied
+    env_row_f: np.ndarray  # ENV_ROW_F, one row per image row
+    env_texel_f: np.ndarray  # ENV_TEXEL_F, one row per texel
 
 
 class Frame(NamedTuple):

@@ -21,5 +21,6 @@ EMITTERS = True  # diffuse lights
 DIELECTRICS = True  # refraction
 SKY = True  # the sky-gradient background
 LIGHTS = True  # light sampling: shadow rays to points on emitters, weighted with the path's own hits
+ENVIRONMENT = True  # an image background: its lookup, and with `integrator: mis` its sampling as a light
 
-NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS")
+NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS", "ENVIRONMENT")

@@ -396,9 +396,15 @@ def sample_light(S, p, time, key, bounce):
     """A point on a light for shading point p (world): (ok, point, unit direction from p, distance,
     solid angle density including the choice of light, emitted radiance). Not ok when the light
     is met edge-on or at p itself."""
+    return sample_light_with(S, p, time, uniform(key, light_dim(bounce, 0)), uniform(key, light_dim(bounce, 1)),
+                             uniform(key, light_dim(bounce, 2)))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_light_with(S, p, time, u0, u1, u2):
+    """`sample_light` with its three random numbers given: u0 chooses the light, u1 and u2 the point."""
     zero = (0.0, 0.0, 0.0)
-    light = choose_light(S.light_f, uniform(key, light_dim(bounce, 0)))
-    u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
+    light = choose_light(S.light_f, u0)
     inst = S.light_i[light, LIGHT_INSTANCE]
     prim = S.light_i[light, LIGHT_PRIMITIVE]
     kind = S.prims_i[prim, PRIM_KIND]

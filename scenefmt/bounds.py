@@ -54,6 +54,10 @@ TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
 # A float image (.exr, .pfm): the file's bytes (at most 12 a pixel uncompressed), the decoded
 # float32 pixels, a contiguous copy, and the joined texels.
 HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
+# An environment map: read as a texture is (8-bit or float), its float32 radiance, and the
+# sampling tables renderer/environment.py builds in float64: the luminance times sin(theta), each
+# texel's density and its row's cumulative sum, with one temporary of each.
+ENVIRONMENT_EXTRA_BYTES_PER_PIXEL = 12 + 6 * 8
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
 # A light row (renderer/lights.py: 3 integers and 12 doubles) per emitting primitive per placement,
@@ -334,6 +338,15 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
             est.textures += n
             if n > biggest[0]:
                 biggest = (n, node.path + ("file",))
+    environment = getattr(graph, "environment_path", None)
+    if environment is not None:
+        from .hdr_files import is_hdr
+
+        per_pixel = (HDR_TEXTURE_BYTES_PER_PIXEL if is_hdr(environment) else TEXTURE_BYTES_PER_PIXEL) + ENVIRONMENT_EXTRA_BYTES_PER_PIXEL
+        n = _image_pixels(environment) * per_pixel
+        est.textures += n
+        if n > biggest[0]:
+            biggest = (n, ("background", "file"))
     est.parts["textures"] = biggest[1]
     est.placements = root.placements
     est.expanded_shapes = root.shapes

@@ -12,7 +12,7 @@ from typing import Iterator, Union
 from . import affine
 from .diagnostics import format_path
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, TextureNode
-from .scene import SkyBackground
+from .scene import ImageBackground, SkyBackground
 
 # (key, name): the key is the kernel path's flag (renderer/kernel_flags.py), the name is what
 # users read.
@@ -28,6 +28,7 @@ EFFECTS = (
     ("dielectrics", "dielectrics"),
     ("sky", "sky background"),
     ("lights", "light sampling"),
+    ("environment", "environment map"),
 )
 EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
@@ -157,6 +158,9 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["dielectrics"] = Effect("", True, _first(dielectrics, lambda m: f"{format_path(m.path)} is glass-like"))
     if isinstance(graph.background, SkyBackground):
         found["sky"] = Effect("", True, "background: {type: sky}")
+    if isinstance(graph.background, ImageBackground):
+        how = "sampled as a light" if graph.image.integrator == "mis" else "found by chance (image.integrator is path)"
+        found["environment"] = Effect("", True, f"background: {{type: image, file: {graph.background.file}}}, {how}")
     if emitters and graph.image.integrator == "mis":
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
@@ -166,7 +170,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         for key, name in EFFECTS
     ]
     summary.texture_kinds = sorted(textures_by_kind)
-    summary.background = "sky" if isinstance(graph.background, SkyBackground) else "solid"
+    summary.background = graph.background.type
     summary.definition_counts = {
         "textures": len({id(t) for t in graph.textures if t.name is not None}),
         "materials": len({id(m) for m in graph.materials if m.name is not None}),

@@ -214,7 +214,7 @@ def _bad_background(e: _Error) -> Diagnostic:
     # The background's callable discriminator reports every failure as one custom error, with no tag;
     # an unknown `type:` is picked out here so it reads like any other union's.
     if isinstance(e.found, dict) and isinstance(e.found.get("type"), str):
-        return e.doc.diagnostic(e.path + ("type",), _unknown_type_message(e.found["type"], ["solid", "sky"]))
+        return e.doc.diagnostic(e.path + ("type",), _unknown_type_message(e.found["type"], ["solid", "sky", "image"]))
     return _bad_slot(e)
 
 

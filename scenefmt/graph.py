@@ -21,7 +21,7 @@ from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
-from .scene import Camera, Image, Scene, Shutter, SkyBackground, SolidBackground
+from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
 from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
 
@@ -114,7 +114,7 @@ class SceneGraph:
     camera: Camera
     image: Image
     shutter: Shutter
-    background: Union[SolidBackground, SkyBackground]
+    background: Union[SolidBackground, SkyBackground, ImageBackground]
     root: GroupNode
     textures: list[TextureNode]
     materials: list[MaterialNode]
@@ -123,6 +123,7 @@ class SceneGraph:
     warnings: list[Diagnostic] = field(default_factory=list)
     source: Optional[str] = None
     memory: Optional[bounds.MemoryEstimate] = None  # what rendering it needs (scenefmt.bounds)
+    environment_path: Optional[Path] = None  # the resolved file of an image background (environment map)
 
 
 MAX_TEXTURE_PIXELS = 16384 * 16384
@@ -467,6 +468,7 @@ class _Resolver:
             if colour is not None and max(colour) > bounds.MAX_RADIANCE:
                 where = ("background",) if isinstance(scene.background, tuple) else ("background", key)
                 self.error(where, f"a background radiance must be at most {bounds.MAX_RADIANCE:g} per channel, found {max(colour):g}")
+        environment = self.environment_file(background) if isinstance(background, ImageBackground) else None
         return SceneGraph(
             camera=scene.camera,
             image=scene.image,
@@ -479,7 +481,29 @@ class _Resolver:
             groups=list(self.groups.values()),
             warnings=self.mesh_warnings + warnings,
             source=self.doc.file if self.doc is not None else None,
+            environment_path=environment,
         )
+
+    def environment_file(self, model: ImageBackground) -> Optional[Path]:
+        """The checked file of an environment map, or None after reporting why. Checked as an image
+        texture's is (a regular file, its size from the header), and read whole here, as a float
+        texture is when it holds floats, so that its values (finite, not negative, and times
+        `strength` a radiance at most bounds.MAX_RADIANCE) are known before anything renders."""
+        where = ("background", "file")
+        path = self.image_file(model.file, where)
+        if path is None or self.doc is None:
+            return path
+        peak = 1.0  # an 8-bit image, read as sRGB: at most 1
+        if is_hdr(path):
+            try:
+                peak = float(read_hdr(path, MAX_TEXTURE_PIXELS).max(initial=0.0))
+            except HdrProblem as exc:
+                self.error(where, f"image file '{model.file}' {exc}")
+                return None
+        if peak * model.strength > bounds.MAX_RADIANCE:
+            self.error(("background", "strength"), f"a background radiance must be at most {bounds.MAX_RADIANCE:g} per channel, "
+                       f"found {peak * model.strength:g} (the image's brightest value {peak:g} times strength {model.strength:g})")
+        return path
 
 
 def build_graph(

@@ -8,6 +8,7 @@ from .scene import (
     Background,
     Camera,
     Image,
+    ImageBackground,
     Scene,
     Shutter,
     SkyBackground,
@@ -19,7 +20,7 @@ from .transforms import MatrixStep, RotateStep, Rotation, ScaleStep, TransformSt
 
 __all__ = [
     "FORMAT_VERSION", "Background", "Box", "Camera", "CheckerTexture", "Color", "ConstantMedium", "Dielectric",
-    "DiffuseLight", "Disk", "Group", "GroupSlot", "Image", "ImageTexture", "Instance", "Isotropic", "Lambertian",
+    "DiffuseLight", "Disk", "Group", "GroupSlot", "Image", "ImageBackground", "ImageTexture", "Instance", "Isotropic", "Lambertian",
     "Material", "MaterialSlot", "MatrixStep", "Mesh", "Medium", "MediumSlot", "Metal", "MovingSphere", "Name", "NoiseTexture",
     "Number", "Quad", "RotateStep", "Rotation", "ScaleStep", "Scene", "Shape", "Shutter", "SkyBackground",
     "SolidBackground", "SolidTexture", "Sphere", "Texture", "TextureSlot", "TransformStep", "TranslateStep",

@@ -247,12 +247,53 @@ class SkyBackground(StrictModel):
     top: Color = Field((0.5, 0.7, 1.0), description="Radiance looking straight up.")
 
 
+class ImageBackground(StrictModel):
+    """An environment map: an equirectangular (latitude-longitude) image of the radiance arriving
+    from every direction, as if from infinitely far away.
+
+    The image's top row is straight up (+y), its bottom row straight down; across the width u
+    runs once around: u = 0 (the left edge) is +z, u = 1/4 is -x, the centre (u = 1/2) is -z
+    (where the default camera looks), u = 3/4 is +x. That is, the direction of texel (u, v)
+    (v = 0 at the top) is (-sin theta sin phi, cos theta, sin theta cos phi) with theta = pi v and
+    phi = 2 pi u, so looking at the centre, the image reads left to right as it does on a screen.
+    With `integrator: mis`, the map is importance-sampled by brightness like a light (a shadow ray
+    toward a direction drawn by luminance, weighed against the path's own escape by multiple
+    importance sampling); with `integrator: path` a path finds it only by escaping. Solid and sky
+    backgrounds are never sampled as lights: they are smooth and fill every direction, so the
+    cosine-weighted ray a diffuse surface sends already follows their contribution closely
+    (exactly, for a solid colour), and a shadow ray would add cost, not accuracy.
+
+    ```yaml
+    type: image
+    file: sky.pfm
+    rotate: 90
+    strength: 1.5
+    ```
+    """
+
+    type: Literal["image"] = Field("image", description="Selects an environment map.")
+    file: str = Field(
+        ...,
+        min_length=1,
+        max_length=4096,
+        description="Equirectangular image, relative to the folder of the file that names it: OpenEXR `.exr` or PFM "
+        "`.pfm` (float RGB, linear radiance as stored), or an 8-bit image such as PNG (read as sRGB and linearised).",
+    )
+    rotate: Number = Field(
+        0.0,
+        ge=-360,
+        le=360,
+        description="Turns the map about +y by this many degrees (right-handed: 90 moves what was at -z to -x).",
+    )
+    strength: Number = Field(1.0, ge=0, description="Scales the map's radiance.")
+
+
 def _background_kind(value: Any) -> str | None:
     if isinstance(value, (list, tuple)):
         return "color"
     if isinstance(value, dict):
         return value.get("type") if isinstance(value.get("type"), str) else None
-    if isinstance(value, (SolidBackground, SkyBackground)):
+    if isinstance(value, (SolidBackground, SkyBackground, ImageBackground)):
         return value.type
     return None
 
@@ -262,14 +303,15 @@ Background = Annotated[
         Annotated[Color, Tag("color")],
         Annotated[SolidBackground, Tag("solid")],
         Annotated[SkyBackground, Tag("sky")],
+        Annotated[ImageBackground, Tag("image")],
     ],
     Discriminator(
         _background_kind,
         custom_error_type="background",
-        custom_error_message="expected a colour [r, g, b], {type: solid, ...} or {type: sky, ...}",
+        custom_error_message="expected a colour [r, g, b], {type: solid, ...}, {type: sky, ...} or {type: image, ...}",
     ),
 ]
-"""A colour triple, a solid background or the sky gradient."""
+"""A colour triple, a solid background, the sky gradient or an environment map."""
 
 
 class Scene(StrictModel):
@@ -301,7 +343,8 @@ class Scene(StrictModel):
     shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")
     background: Background = Field(
         default_factory=SkyBackground,
-        description="Radiance of rays that leave the scene: a colour, `solid` or `sky`. The default is the first "
+        description="Radiance of rays that leave the scene: a colour, `solid`, `sky` or an `image` (an environment "
+        "map). The default is the first "
         "book's sky gradient, so a scene without lights is still visible; the second book's scenes set it explicitly.",
     )
     textures: dict[Name, Texture] = Field(default_factory=dict, description="Named textures.")

@@ -5,11 +5,12 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..background import background
+from ..background import BACKGROUND_IMAGE, BG_KIND, background
 from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..kernel_flags import EMITTERS, IMAGE, INSTANCES, LIGHTS, MEDIA
-from ..lights import light_pdf, sample_light
+from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
+from ..kernel_flags import EMITTERS, ENVIRONMENT, IMAGE, INSTANCES, LIGHTS, MEDIA
+from ..lights import light_pdf, sample_light_with
 from ..materials import DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
 from ..shapes import MEDIUM, PRIM_KIND, PRIM_MATERIAL
 from ..shapes.dispatch import spawn_origin, surface
@@ -39,11 +40,18 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     samples a point on a light and casts a shadow ray to it (next-event estimation); that
     estimate and the path's own chance hit on a light are weighted by the power heuristic
     (multiple importance sampling), and paths past a few bounces end by Russian roulette.
+    An environment map is one more light there: a light sample goes to it with probability
+    `choose` (environment.py) and to an area light otherwise, and a path that escapes is
+    weighed against the map's sampler the same way.
     """
     r, g, b = 0.0, 0.0, 0.0
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
     mis = integrator == INTEGRATOR_MIS
+    env_map = ENVIRONMENT and S.background[BG_KIND] == BACKGROUND_IMAGE
+    # The share of light samples that go to the map (0 without one, or for a black one).
+    choose = S.background[ENV_CHOOSE] if env_map and mis else 0.0
+    env_nee = choose > 0.0
     nee = LIGHTS and mis and S.light_i.shape[0] > 0
     # The solid angle density with which the last vertex chose this ray's direction; 0 after
     # the camera and after a metal or a dielectric, whose directions no light sampler can give.
@@ -56,7 +64,14 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
-            bg = background(S.background, d)
+            if env_map:
+                bg, env_pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, d)
+                if env_nee and prev_pdf > 0.0:
+                    # The map's sampler could have given this direction too: weigh the two ways.
+                    w = 1.0 / (1.0 + (choose * env_pdf / prev_pdf) ** 2)
+                    bg = (bg[0] * w, bg[1] * w, bg[2] * w)
+            else:
+                bg = background(S.background, d)
             r += tr * bg[0]
             g += tg * bg[1]
             b += tb * bg[2]
@@ -89,7 +104,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
             if nee and prev_pdf > 0.0:
                 # The light sampler could have found this point too: weigh the two ways.
-                light = light_pdf(S, inst, prim, prev_p, p, n, time)
+                light = light_pdf(S, inst, prim, prev_p, p, n, time) * (1.0 - choose)
                 w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
                 e = (e[0] * w, e[1] * w, e[2] * w)
             r += tr * e[0]
@@ -101,8 +116,19 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             break
         att = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
         # The shadow ray is the path's next segment: only where max_depth allows one more.
-        if nee and bounce + 1 < max_depth and (kind == LAMBERTIAN or kind == ISOTROPIC):
-            ok, x, wi, dist, light, le = sample_light(S, p, time, key, bounce)
+        if (nee or env_nee) and bounce + 1 < max_depth and (kind == LAMBERTIAN or kind == ISOTROPIC):
+            u0 = uniform(key, light_dim(bounce, 0))
+            u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
+            ok, x, wi, light, le, reach = False, p, n_front, 0.0, (0.0, 0.0, 0.0), 1.0 - SHADOW_MARGIN
+            if ENVIRONMENT and env_nee and u0 < choose:
+                # Toward the map: a direction, and a shadow ray to infinity.
+                ok, wi, light, le = sample_environment(S.background, S.env_rgb, S.env_row_f, S.env_texel_f, u1, u2)
+                light *= choose
+                reach = math.inf
+            elif nee:
+                # Toward an area light, u0 rescaled to choose one (exactly u0 when there is no map).
+                ok, x, wi, _, light, le = sample_light_with(S, p, time, (u0 - choose) / (1.0 - choose), u1, u2)
+                light *= 1.0 - choose
             if kind == LAMBERTIAN:
                 density = dot(wi, n_front) / math.pi  # the cosine lobe's, and the BRDF times the cosine
             else:
@@ -110,7 +136,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             if ok and density > 0.0 and light > 0.0:
                 origin = p if prim_kind == MEDIUM else spawn_origin(p, o, n_front, wi)
                 rays += 1
-                seen = transmittance(S, origin, sub(x, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack)
+                toward = wi if reach == math.inf else sub(x, origin)
+                seen = transmittance(S, origin, toward, reach, time, stack, tstack)
                 if seen > 0.0:
                     w = 1.0 / (1.0 + (density / light) ** 2)
                     k = seen * density * w / light

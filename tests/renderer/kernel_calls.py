@@ -18,7 +18,8 @@ from renderer.kernels.vec import unit, xform_normal, xform_point, xform_vector
 from renderer.lights import light_pdf, sample_light
 from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
-from renderer.kernels.rng import bounce_dim, path_key
+from renderer.environment import environment_radiance, sample_environment
+from renderer.kernels.rng import bounce_dim, light_dim, path_key, uniform
 from renderer.materials import MATERIAL_F, MATERIAL_I, random_unit_vector, scatter
 from renderer.media import medium_hit
 from renderer.textures import texture_value
@@ -154,3 +155,41 @@ def segment_transmittance(S, o, target, time):
     stack, tstack = _stacks()
     d = (target[0] - o[0], target[1] - o[1], target[2] - o[2])
     return transmittance(S, (o[0], o[1], o[2]), d, 1.0, time, stack, tstack)
+
+
+# --- the environment map ----------------------------------------------------------------------
+
+
+@njit(cache=True, error_model="numpy")
+def environment_samples(S, seed, n):
+    """n draws of `sample_environment`: rows (ok, direction 3, pdf, radiance 3, the pdf and the
+    first radiance channel `environment_radiance` gives the drawn direction)."""
+    out = np.zeros((n, 10))
+    for k in range(n):
+        key = path_key(seed, k, 0)
+        ok, d, pdf, le = sample_environment(S.background, S.env_rgb, S.env_row_f, S.env_texel_f,
+                                            uniform(key, light_dim(0, 1)), uniform(key, light_dim(0, 2)))
+        out[k, 0] = 1.0 if ok else 0.0
+        out[k, 1], out[k, 2], out[k, 3], out[k, 4] = d[0], d[1], d[2], pdf
+        out[k, 5], out[k, 6], out[k, 7] = le[0], le[1], le[2]
+        if ok:
+            back, back_pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, d)
+            out[k, 8], out[k, 9] = back_pdf, back[0]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def environment_lookup(S, dirs):
+    """Rows (radiance 3, solid angle density) of the map along each direction of `dirs`."""
+    out = np.zeros((dirs.shape[0], 4))
+    for k in range(dirs.shape[0]):
+        le, pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = le[0], le[1], le[2], pdf
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def ray_transmittance(S, o, d, tmax, time):
+    """`transmittance` along o + t d for t in (0, tmax); tmax may be inf (a shadow ray to the environment)."""
+    stack, tstack = _stacks()
+    return transmittance(S, (o[0], o[1], o[2]), (d[0], d[1], d[2]), tmax, time, stack, tstack)

@@ -46,6 +46,7 @@ SWITCH_ON = {
     "dielectrics": ("materials:\n  glass: {type: dielectric, ior: 1.5}\n",
                     "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: glass}\n"),
     "sky": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
+    "environment": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
 }
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]
@@ -59,6 +60,8 @@ def scene_text(flag=None):
         text = text.replace("vfov: 40}", "vfov: 40, defocus_angle: 2}")
     if flag == "sky":
         text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: sky}")
+    if flag == "environment":
+        text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: image, file: SKY}")
     if flag == "emitters":
         text = text.replace("max_depth: 6}", "max_depth: 6, integrator: path}")
     if head.startswith("materials:"):
@@ -72,7 +75,7 @@ def scene_text(flag=None):
 
 
 def graph_of(flag=None):
-    return loads(scene_text(flag).replace("EARTH", str(SCENES / "earthmap.png"))).graph
+    return loads(scene_text(flag).replace("EARTH", str(SCENES / "earthmap.png")).replace("SKY", str(SCENES / "sky.pfm"))).graph
 
 
 def flat_of(flag=None):

@@ -70,6 +70,10 @@ EXPECTED = {
         {"box": 400, "quad": 1, "moving_sphere": 1, "sphere": 6, "instance": 1}, (400, 400), 250, 4,
         dict(look_from=(478, 278, -600), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    # Not from the books: the project's environment map (scenes/generate_sky.py) in use.
+    "sky_spheres.yaml": (
+        {"sphere": 4}, (320, 180), 64, 16, dict(look_from=(0, 1.1, 4.5), look_at=(0, 0.45, 0), vfov=35), "image",
+    ),
 }
 
 
@@ -114,6 +118,9 @@ def test_scene_file_loads_with_book_settings(path: Path):
     assert tuple(sc.camera.up) == (0, 1, 0)
     if background == "sky":
         assert sc.background == SkyBackground(bottom=(1, 1, 1), top=(0.5, 0.7, 1.0))
+    elif background == "image":
+        assert sc.background.file == "sky.pfm"
+        assert result.graph.environment_path == (SCENES / "sky.pfm").resolve()
     else:
         assert tuple(sc.background) == pytest.approx(background)
 
@@ -121,6 +128,15 @@ def test_scene_file_loads_with_book_settings(path: Path):
 @pytest.mark.parametrize("path", [p for p in SCENE_FILES if p.suffix == ".yaml"], ids=lambda p: p.name)
 def test_yaml_files_name_the_schema(path: Path):
     assert path.read_text(encoding="utf-8").splitlines()[0] == "# yaml-language-server: $schema=../schemas/scene.schema.json"
+
+
+def test_the_sky_map_is_what_its_script_writes():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, str(SCENES / "generate_sky.py"), "--check"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (SCENES / "sky.pfm").stat().st_size < 400_000
 
 
 def test_quads_is_json():

@@ -1,0 +1,210 @@
+"""The environment map: an image background's texels, the tables that sample it by brightness,
+their flattening, and the kernels that look it up and sample it.
+
+The map is equirectangular (scenefmt.scene.ImageBackground): texel (col, row) of a W x H image
+covers u in [col, col + 1) / W and v in [row, row + 1) / H, and (u, v) is the direction
+
+    theta = pi v (from +y), phi = 2 pi u:  (-sin theta sin phi, cos theta, sin theta cos phi)
+
+in the map's frame, turned about +y by `rotate` into the world. Radiance is constant over a
+texel (the nearest texel, no filtering), so the sampler below can follow it exactly.
+
+Sampling (pbrt's 2-D piecewise-constant distribution): each texel gets the weight
+f = luminance x sin(theta at its row's centre), since a row near a pole covers less solid
+angle. A row is chosen from the marginal cdf over rows, then a texel within it from that row's
+conditional cdf, both by binary search, and the point is uniform inside the texel. The density
+in (u, v) is p(u, v) = f / mean(f), and per solid angle, with d omega = 2 pi^2 sin(theta) du dv,
+
+    pdf(omega) = p(u, v) / (2 pi^2 sin theta).
+
+Choosing between the map and the area lights: with `integrator: mis` a light sample goes to
+the map with probability `choose` (the background row), else to an area light (lights.py,
+chosen by power as before). `choose` is the map's share of the power: the map sends a scene of
+bounding radius R the flux pi R^2 times its radiance integrated over the sphere, against
+2 pi A L for a two-sided area light (lights.py's powers are A L); clamped to [0.1, 0.9] when
+both kinds are present, so neither starves when the estimate is poor (R from a huge ground
+sphere), and 1 when the map is the only light. A map with no light (black, or strength 0) is
+never sampled: `choose` is 0 and its (zero) radiance is found only by BSDF rays.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
+from .columns import Column, Layout
+
+ENV_ROW_F = Layout("env_row_f", "float64", [
+    Column("cdf", 1, "probability of choosing this row or one above it (the last row is 1)"),
+    Column("pmf", 1, "probability of choosing this row: its share of luminance x sin(theta)"),
+])
+ENV_TEXEL_F = Layout("env_texel_f", "float64", [
+    Column("cdf", 1, "probability, within its row, of choosing this texel or one left of it"),
+    Column("pmf", 1, "probability of choosing this texel, given its row"),
+    Column("density", 1, "p(u, v): the density of a sample in the unit square of (u, v) over this texel"),
+])
+ENV_ROW_CDF, ENV_ROW_PMF = ENV_ROW_F.offsets("cdf", "pmf")
+ENV_TEXEL_CDF, ENV_TEXEL_PMF, ENV_TEXEL_DENSITY = ENV_TEXEL_F.offsets("cdf", "pmf", "density")
+ENV_WIDTH, ENV_HEIGHT, ENV_COS, ENV_SIN, ENV_CHOOSE = IMAGE_BACKGROUND.offsets(
+    "width", "height", "cos_rotate", "sin_rotate", "choose")
+
+# The least and most share of light samples the map gets when area lights are present too.
+MIN_CHOOSE = 0.1
+MAX_CHOOSE = 0.9
+TWO_PI_SQUARED = 2.0 * math.pi * math.pi
+
+
+# --- flattening -------------------------------------------------------------------------------
+
+
+def no_environment() -> dict[str, np.ndarray]:
+    """The tables of a scene whose background is not an image."""
+    return {"env_rgb": np.zeros((0, 3), np.float32), "env_row_f": ENV_ROW_F.array(0), "env_texel_f": ENV_TEXEL_F.array(0)}
+
+
+def tables(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """env_row_f, env_texel_f and the radiance integrated over the sphere of directions (its
+    luminance) of an (h, w, 3) map of linear radiance."""
+    h, w = rgb.shape[:2]
+    sin_row = np.sin(np.pi * (np.arange(h) + 0.5) / h)
+    f = (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]).astype(np.float64) * sin_row[:, None]
+    row_sum = f.sum(axis=1)
+    total = float(row_sum.sum())
+    rows, texels = ENV_ROW_F.array(h), ENV_TEXEL_F.array(h * w)
+    if not total > 0.0:
+        return rows, texels, 0.0
+    rows[:, ENV_ROW_PMF] = row_sum / total
+    rows[:, ENV_ROW_CDF] = np.cumsum(row_sum) / total
+    rows[-1, ENV_ROW_CDF] = 1.0
+    # A row without light is never chosen; its conditional is uniform only to stay finite.
+    safe = np.where(row_sum > 0.0, row_sum, 1.0)[:, None]
+    pmf = np.where(row_sum[:, None] > 0.0, f / safe, 1.0 / w)
+    cdf = np.cumsum(pmf, axis=1)
+    cdf[:, -1] = 1.0
+    texels[:, ENV_TEXEL_PMF] = pmf.ravel()
+    texels[:, ENV_TEXEL_CDF] = cdf.ravel()
+    texels[:, ENV_TEXEL_DENSITY] = (f * (h * w / total)).ravel()
+    return rows, texels, total * TWO_PI_SQUARED / (h * w)
+
+
+def scene_radius(flat) -> float:
+    """Half the diagonal of the box around every instance (1 for an empty scene)."""
+    if len(flat.tlas_f) == 0:
+        return 1.0
+    from .kernels.traverse import TLAS_HI, TLAS_LO
+
+    size = flat.tlas_f[0, TLAS_HI:TLAS_HI + 3] - flat.tlas_f[0, TLAS_LO:TLAS_LO + 3]
+    radius = 0.5 * float(np.linalg.norm(size))
+    return radius if math.isfinite(radius) and radius > 0.0 else 1.0
+
+
+def choice(flat, env_power: float) -> float:
+    """The probability that a light sample goes to the map (see the module's docstring)."""
+    if not env_power > 0.0:
+        return 0.0
+    if len(flat.light_i) == 0:
+        return 1.0
+    from .lights import _powers
+
+    area = 2.0 * math.pi * float(_powers(flat, flat.light_i, flat.light_f).sum())
+    env = math.pi * scene_radius(flat) ** 2 * env_power
+    share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
+    return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
+
+
+def flatten(flat, graph) -> dict[str, np.ndarray]:
+    """The background row and environment tables of `flat` (whose lights are flattened), or
+    nothing for a background that is not an image."""
+    from scenefmt.scene import ImageBackground
+
+    from .textures import load_image_texels
+
+    bg = graph.background
+    if not isinstance(bg, ImageBackground):
+        return {}
+    texels = load_image_texels(graph.environment_path, "srgb")  # float images as stored, 8-bit ones as sRGB
+    rgb = np.ascontiguousarray(texels * np.float32(bg.strength), dtype=np.float32)
+    h, w = rgb.shape[:2]
+    rows, texel_f, power = tables(rgb)
+    turn = math.radians(bg.rotate)
+    row = IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE), width=float(w), height=float(h), cos_rotate=math.cos(turn),
+                               sin_rotate=math.sin(turn), choose=choice(flat, power))
+    return {"background": np.array(row, np.float64), "env_rgb": rgb.reshape(-1, 3), "env_row_f": rows, "env_texel_f": texel_f}
+
+
+# --- the kernels ------------------------------------------------------------------------------
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def environment_radiance(bg, env_rgb, env_texel_f, d):
+    """The map's radiance arriving along direction d (any length, pointing away from the scene),
+    and the solid angle density with which `sample_environment` gives that direction (the
+    choice of the map not included)."""
+    w, h = int(bg[ENV_WIDTH]), int(bg[ENV_HEIGHT])
+    c, s = bg[ENV_COS], bg[ENV_SIN]
+    # Into the map's frame: the turn about +y undone.
+    x = c * d[0] - s * d[2]
+    y = d[1]
+    z = s * d[0] + c * d[2]
+    r = math.sqrt(x * x + z * z)
+    theta = math.atan2(r, y)
+    phi = math.atan2(-x, z)
+    if phi < 0.0:
+        phi += 2.0 * math.pi
+    col = min(max(int(phi * (w / (2.0 * math.pi))), 0), w - 1)
+    row = min(max(int(theta * (h / math.pi)), 0), h - 1)
+    k = row * w + col
+    density = env_texel_f[k, ENV_TEXEL_DENSITY]
+    sin_t = r / math.sqrt(r * r + y * y) if r > 0.0 else 0.0
+    if density <= 0.0:
+        pdf = 0.0
+    elif sin_t > 0.0:
+        pdf = density / (TWO_PI_SQUARED * sin_t)
+    else:
+        pdf = math.inf  # exactly at a pole: a set of no measure
+    return (float(env_rgb[k, 0]), float(env_rgb[k, 1]), float(env_rgb[k, 2])), pdf
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def _search(table, column, first, count, u):
+    """The first of rows first..first + count - 1 whose `column` (a cdf) exceeds u."""
+    lo, hi = first, first + count - 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if u < table[mid, column]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_environment(bg, env_rgb, env_row_f, env_texel_f, u1, u2):
+    """A direction drawn from the map by brightness: (ok, unit direction, solid angle density
+    without the choice of the map, radiance). Not ok for a draw exactly at a pole."""
+    zero = (0.0, 0.0, 0.0)
+    w, h = int(bg[ENV_WIDTH]), int(bg[ENV_HEIGHT])
+    # The row from the marginal cdf, then the texel from its row's conditional cdf; the place
+    # of u within the chosen interval is reused as the position inside the texel.
+    row = _search(env_row_f, ENV_ROW_CDF, 0, h, u1)
+    pmf = env_row_f[row, ENV_ROW_PMF]
+    below = env_row_f[row - 1, ENV_ROW_CDF] if row > 0 else 0.0
+    fv = min(max((u1 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5
+    k = _search(env_texel_f, ENV_TEXEL_CDF, row * w, w, u2)
+    pmf = env_texel_f[k, ENV_TEXEL_PMF]
+    below = env_texel_f[k - 1, ENV_TEXEL_CDF] if k > row * w else 0.0
+    fu = min(max((u2 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5
+    col = k - row * w
+    theta = math.pi * (row + fv) / h
+    phi = 2.0 * math.pi * (col + fu) / w
+    sin_t = math.sin(theta)
+    density = env_texel_f[k, ENV_TEXEL_DENSITY]
+    if not (sin_t > 0.0 and density > 0.0):
+        return False, zero, 0.0, zero
+    xm, y, zm = -sin_t * math.sin(phi), math.cos(theta), sin_t * math.cos(phi)
+    c, s = bg[ENV_COS], bg[ENV_SIN]
+    d = (c * xm + s * zm, y, -s * xm + c * zm)
+    return True, d, density / (TWO_PI_SQUARED * sin_t), (float(env_rgb[k, 0]), float(env_rgb[k, 1]), float(env_rgb[k, 2]))

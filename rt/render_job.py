@@ -109,6 +109,20 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
+def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """(graph, flat tables) of a loaded scene with --width and --integrator applied; raises
+    SceneError (the film too big for memory) or ValueError (an image that does not decode).
+    The one way from a loaded scene to the kernels' tables: `rt render`, rt.render and `rt watch`."""
+    from renderer.compile import compile_scene, with_integrator, with_width
+    from scenefmt.bounds import check_memory
+
+    graph = loaded.graph if width is None else with_width(loaded.graph, width)
+    if integrator is not None:
+        graph = with_integrator(graph, integrator)
+    check_memory(graph, loaded.document)  # --width changes the film's size
+    return graph, compile_scene(graph)
+
+
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -140,20 +154,14 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if problem:
         raise fail(problem)
 
-    from renderer.compile import compile_scene, with_integrator, with_width
     from renderer.flat import Frame
     from renderer.variants import features_of
-    from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load_source
 
     try:
         loaded = load_source(opts.scene, opts.overrides, opts.syntax)
-        graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
-        if opts.integrator is not None:
-            graph = with_integrator(graph, opts.integrator)
-        check_memory(graph, loaded.document)  # --width changes the film's size
-        flat = compile_scene(graph)
+        graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
             say(str(diag), err=True)

@@ -263,6 +263,31 @@ def render(
         raise typer.Exit(stop.status)
 
 
+@app.command(epilog="Example: rt watch scenes/cornell_box.yaml --width 300 --spp 64, then open http://127.0.0.1:8000/")
+def watch(
+    scene: Path = typer.Argument(..., help="Scene file (YAML or JSON) to show and watch.", show_default=False),
+    port: int = typer.Option(8000, "--port", min=0, max=65535, help="Port of the page (0: any free one)."),
+    host: str = typer.Option(
+        "127.0.0.1", "--host", help="Address to listen on; other than the loopback address, anyone who can reach this machine sees the page."
+    ),
+    overrides: List[str] = _SET_OPTION,
+    spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
+    width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
+    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default) or path, as for rt render."),
+) -> None:
+    """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
+    from .watch import WatchOptions, main_say, serve
+
+    if str(scene) == "-":
+        typer.echo("error: rt watch needs a scene file to watch, not standard input", err=True)
+        raise typer.Exit(2)
+    if integrator is not None and integrator not in ("mis", "path"):
+        typer.echo(f"error: --integrator {integrator!r}: expected mis or path", err=True)
+        raise typer.Exit(2)
+    opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides))
+    raise typer.Exit(serve(opts, host, port, main_say))
+
+
 @app.command(epilog="Example: rt schema -o scene.schema.json")
 def schema(
     output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write to this file instead of standard output."),

@@ -258,6 +258,7 @@ class Previewer:
                 self.say(error["text"])
             self.say(f"{self.opts.scene}: invalid; showing the last good image (save again to retry)")
             self.board.post("problems", {"generation": generation, "errors": errors})
+            self.board.post("status", {"generation": generation, "text": "the scene has errors: fix them and save"})
             return
         self.board.post("problems", {"generation": generation, "errors": []})
         needed = features_of(graph)

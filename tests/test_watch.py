@@ -196,3 +196,22 @@ def test_ctrl_c_stops_rt_watch_cleanly(tmp_path):
             process.kill()
     assert process.returncode == 0, out
     assert out.rstrip().endswith("stopped") and "Traceback" not in out
+
+
+def test_rt_watch_refuses_standard_input_and_a_port_in_use(tmp_path):
+    import socket
+
+    from typer.testing import CliRunner
+
+    from rt.cli import app
+    from rt.watch import serve
+
+    result = CliRunner().invoke(app, ["watch", "-"])
+    assert result.exit_code == 2 and "needs a scene file to watch" in result.stderr
+    (tmp_path / "scene.yaml").write_text(SCENE)
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        said = []
+        assert serve(WatchOptions(tmp_path / "scene.yaml"), "127.0.0.1", taken.getsockname()[1], said.append) == 1
+    assert said[0].startswith("error: cannot listen on 127.0.0.1:") and "choose another port with --port" in said[0]

@@ -180,21 +180,28 @@ def validate(
     raise typer.Exit(1 if failed else 0)
 
 
-@app.command(epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.exr")
+@app.command(
+    epilog="Example: rt render scenes/cornell_box.yaml -o cornell.png --spp 64 --hdr cornell.exr; "
+    "rt render scenes/*.yaml -o renders/ --hdr exr --spp 16 (several scenes in one process)",
+)
 def render(
-    scene: Path = typer.Argument(
-        ..., help="Scene file (YAML or JSON) to render; - reads it from standard input (the image is then stdin.png unless -o says).",
+    scenes: List[Path] = typer.Argument(
+        ..., help="Scene files (YAML or JSON) to render; - reads one from standard input (its image is then stdin.png unless -o "
+        "says). Several scenes render one after the other in this process, the kernels loaded once; each image is named after "
+        "its scene.",
         show_default=False
     ),
     overrides: List[str] = _SET_OPTION,
     syntax: Optional[Syntax] = _FORMAT_OPTION,
     output: Optional[Path] = typer.Option(
-        None, "--output", "-o", help="PNG file to write (default: the scene file's name with .png, in the current folder)."
+        None, "--output", "-o", help="PNG file to write (default: the scene file's name with .png, in the current folder); "
+        "with several scenes, the folder to write their images in.",
     ),
     hdr: Optional[Path] = typer.Option(
         None, "--hdr",
         help="Also write the linear, unclamped image: .exr (OpenEXR, float32 RGB; needs the openexr package) or .pfm "
-        "(portable float map).",
+        "(portable float map). With several scenes, give the format only (--hdr exr or --hdr pfm): each is written beside "
+        "its PNG.",
     ),
     exposure: Optional[float] = typer.Option(
         None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its gamma and clamping (the --hdr image is not changed).",
@@ -239,19 +246,48 @@ def render(
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
 
-    from .render_job import RenderOptions, Stop, run
+    from .render_job import RenderOptions, Stop, run, run_batch
 
     started = time.perf_counter()
+    _check_stdin_use(scenes)
     opts = RenderOptions(
-        scene=scene, output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
+        scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
         syntax=syntax.value if syntax else None,
     )
     try:
-        run(opts, started)
+        if len(scenes) == 1:
+            run(opts, started)
+        else:
+            run_batch(opts, scenes)
     except Stop as stop:
         raise typer.Exit(stop.status)
+
+
+@app.command(epilog="Example: rt watch scenes/cornell_box.yaml --width 300 --spp 64, then open http://127.0.0.1:8000/")
+def watch(
+    scene: Path = typer.Argument(..., help="Scene file (YAML or JSON) to show and watch.", show_default=False),
+    port: int = typer.Option(8000, "--port", min=0, max=65535, help="Port of the page (0: any free one)."),
+    host: str = typer.Option(
+        "127.0.0.1", "--host", help="Address to listen on; other than the loopback address, anyone who can reach this machine sees the page."
+    ),
+    overrides: List[str] = _SET_OPTION,
+    spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
+    width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
+    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default) or path, as for rt render."),
+) -> None:
+    """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
+    from .watch import WatchOptions, main_say, serve
+
+    if str(scene) == "-":
+        typer.echo("error: rt watch needs a scene file to watch, not standard input", err=True)
+        raise typer.Exit(2)
+    if integrator is not None and integrator not in ("mis", "path"):
+        typer.echo(f"error: --integrator {integrator!r}: expected mis or path", err=True)
+        raise typer.Exit(2)
+    opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides))
+    raise typer.Exit(serve(opts, host, port, main_say))
 
 
 @app.command(epilog="Example: rt schema -o scene.schema.json")

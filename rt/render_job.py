@@ -127,6 +127,20 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
+def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """(graph, flat tables) of a loaded scene with --width and --integrator applied; raises
+    SceneError (the film too big for memory) or ValueError (an image that does not decode).
+    The one way from a loaded scene to the kernels' tables: `rt render`, rt.render and `rt watch`."""
+    from renderer.compile import compile_scene, with_integrator, with_width
+    from scenefmt.bounds import check_memory
+
+    graph = loaded.graph if width is None else with_width(loaded.graph, width)
+    if integrator is not None:
+        graph = with_integrator(graph, integrator)
+    check_memory(graph, loaded.document)  # --width changes the film's size
+    return graph, compile_scene(graph)
+
+
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -158,20 +172,14 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if problem:
         raise fail(problem)
 
-    from renderer.compile import compile_scene, with_integrator, with_width
     from renderer.flat import Frame
     from renderer.variants import features_of
-    from scenefmt.bounds import check_memory
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load_source
 
     try:
         loaded = load_source(opts.scene, opts.overrides, opts.syntax)
-        graph = loaded.graph if opts.width is None else with_width(loaded.graph, opts.width)
-        if opts.integrator is not None:
-            graph = with_integrator(graph, opts.integrator)
-        check_memory(graph, loaded.document)  # --width changes the film's size
-        flat = compile_scene(graph)
+        graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
             say(str(diag), err=True)
@@ -377,3 +385,56 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
         raise Stop(130)
+
+
+def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
+    """The options of each scene of a batch (`rt render a.yaml b.yaml ...`): its image named after it,
+    in the folder -o names; --hdr gives only the format of the linear image written beside it.
+    Raises Stop(2) for options that name one file, or two scenes whose images would share a name."""
+    import dataclasses
+    import os
+
+    for name, value in (("--save-state", opts.save_state), ("--resume", opts.resume), ("--noise-map", opts.noise_map)):
+        if value is not None:
+            say(f"error: {name} names one file: render one scene at a time to use it", err=True)
+            raise Stop(2)
+    folder = opts.output
+    if folder is not None and not folder.is_dir():
+        raise fail(f"error: -o {folder}: with several scenes, -o names the folder to write their images in, and this is not one")
+    hdr_suffix = None
+    if opts.hdr is not None:
+        hdr_suffix = "." + str(opts.hdr).lower().lstrip(".")
+        if hdr_suffix not in (".exr", ".pfm"):
+            raise fail(f"error: --hdr {opts.hdr}: with several scenes, give the format only: --hdr exr or --hdr pfm")
+    out = []
+    seen: dict[str, Path] = {}
+    for scene in scenes:
+        stem = "stdin" if str(scene) == "-" else Path(scene).stem
+        png = (folder or Path(".")) / f"{stem}.png"
+        key = os.path.abspath(png)
+        if key in seen:
+            raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
+        seen[key] = scene
+        hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
+        out.append(dataclasses.replace(opts, scene=Path(scene), output=png, hdr=hdr))
+    return out
+
+
+def run_batch(opts: RenderOptions, scenes: list) -> None:
+    """Render several scenes one after the other in this process (the kernels load once). A scene
+    that fails is reported and the others still render; raises Stop(1) at the end if any failed,
+    Stop(130) at once on Ctrl-C."""
+    each = batch_options(opts, scenes)
+    failed = []
+    for i, scene_opts in enumerate(each, 1):
+        say(f"[{i}/{len(each)}] {scene_opts.scene}", err=True)
+        started = time.perf_counter()
+        try:
+            render_prepared(scene_opts, prepare(scene_opts), started)
+        except Stop as stop:
+            if stop.status == 130:
+                say(f"interrupted: {len(each) - i} scene(s) not rendered", err=True)
+                raise
+            failed.append(str(scene_opts.scene))
+    if failed:
+        raise fail(f"error: {len(failed)} of {len(each)} scenes failed: {', '.join(failed)}")

@@ -10,10 +10,15 @@ between check and read changes nothing), and read to at most the limit plus one 
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import errno
 import os
 import stat
 from pathlib import Path
+
+# The files opened through this module while `recording_reads` is active (in this thread).
+_reads: contextvars.ContextVar = contextvars.ContextVar("scenefmt_reads", default=None)
 
 
 class FileProblem(Exception):
@@ -60,6 +65,19 @@ def kind_of(mode: int) -> str | None:
     return "not a regular file"
 
 
+@contextlib.contextmanager
+def recording_reads():
+    """Collect the absolute path of every file opened here while inside (a scene file, the files
+    it includes, its textures and meshes; also those that could not be opened): what `rt watch`
+    watches for changes. Yields the list, filled as files are opened."""
+    seen: list[str] = []
+    token = _reads.set(seen)
+    try:
+        yield seen
+    finally:
+        _reads.reset(token)
+
+
 def open_regular_file(path):
     """The regular file at `path` opened for binary reading (a file object); FileProblem otherwise."""
     fd = _open_regular(path)
@@ -70,6 +88,9 @@ def _open_regular(path) -> int:
     problem = path_problem(path)
     if problem:
         raise FileProblem(problem)
+    log = _reads.get()
+    if log is not None:
+        log.append(os.path.abspath(os.fsdecode(path)))
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
         fd = os.open(Path(path), flags)

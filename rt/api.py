@@ -1,0 +1,307 @@
+"""The Python API: `rt.render`, `rt.load`, `rt.validate` and the `Image` a render returns.
+
+A process that calls `rt.render` more than once pays for imports and kernel loading once: the
+second call of a small image takes milliseconds, not the second or so of a new `rt render`
+process. The steps are those of `rt render` (`rt.render_job.flatten`, `renderer.render_flat`),
+so the same scene, seed and sample count give the same image bit for bit as
+`rt render --hdr out.pfm`.
+
+Nothing heavy is imported here at module level: `import rt` stays as quick as `rt validate`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Optional, Union
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from renderer.film import Film, NoiseEstimate
+    from renderer.render import RenderStats
+    from scenefmt.diagnostics import Diagnostic
+    from scenefmt.scene import Scene
+    from scenefmt.validation import LoadedScene
+
+SceneLike = Union[str, Path, dict, "Scene", "LoadedScene"]
+
+DICT_NAME = "<dict>"  # the file name diagnostics give for a scene passed as a dict or a model
+
+
+def _plain(value: Any) -> Any:
+    """Data as the file loaders make it: dicts, lists, str, int, float, bool, None (tuples and numpy
+    values become lists and Python numbers)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "tolist") and hasattr(value, "dtype"):  # a numpy array or scalar
+        return _plain(value.tolist())
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> "LoadedScene":
+    """The checked scene: `.scene` (the pydantic models), `.graph` (names resolved) and `.warnings`.
+
+    `scene` is a file name (YAML or JSON), a `scenefmt` `Scene` model, or a dict of the file's
+    data; `overrides` are `--set` arguments (`"image.width=64"`). Raises `rt.SceneError`, whose
+    `.diagnostics` list every problem with its file, line, column and key path.
+    """
+    from scenefmt.loading import SourceDocument
+    from scenefmt.validation import LoadedScene, check_document, compose
+    from scenefmt.validation import load as load_file
+
+    if isinstance(scene, LoadedScene):
+        if overrides:
+            raise ValueError("overrides apply to a scene file, a model or a dict, not to a scene loaded already")
+        return scene
+    if isinstance(scene, (str, Path)):
+        return load_file(scene, overrides, syntax)
+    from pydantic import BaseModel
+
+    if isinstance(scene, BaseModel):
+        from scenefmt.writing import to_data
+
+        data = to_data(scene)
+    elif isinstance(scene, dict):
+        data = _plain(scene)
+    else:
+        raise TypeError(f"expected a scene file name, a scenefmt Scene or a dict, not {type(scene).__name__}")
+    # Relative file names in it (textures, meshes, includes) resolve from the current folder.
+    return check_document(compose(SourceDocument(DICT_NAME, data, base_dir=Path.cwd()), overrides))
+
+
+@dataclass
+class Validation:
+    """What `rt.validate` found: `errors` (the scene cannot render) and `warnings`; `ok` if no errors."""
+
+    errors: list["Diagnostic"] = field(default_factory=list)
+    warnings: list["Diagnostic"] = field(default_factory=list)
+    loaded: Optional["LoadedScene"] = None  # the scene, when it is valid
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    def __str__(self) -> str:
+        lines = [str(d) for d in self.errors + self.warnings]
+        return "\n".join(lines) if lines else "valid"
+
+
+def validate(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> Validation:
+    """Check a scene as `rt validate` does, without raising: the errors and warnings, each a
+    `Diagnostic` with `file`, `line`, `column`, `path` and `message` (and `str()` of the lot)."""
+    from scenefmt.diagnostics import SceneError
+
+    try:
+        loaded = load(scene, overrides, syntax)
+    except SceneError as exc:
+        return Validation(errors=list(exc.diagnostics))
+    return Validation(warnings=list(loaded.warnings), loaded=loaded)
+
+
+class Image:
+    """A rendered image: linear radiance, its noise estimate and the render's statistics.
+
+    - `array`: (height, width, 3) float32 linear RGB radiance, unclamped (what `--hdr` writes).
+    - `samples`, `width`, `height`; `noise`: the relative RMS noise estimated from the samples
+      (inf below 2 samples per pixel); `noise_map`: each pixel's standard error (height, width);
+      `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
+    - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
+    - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
+    """
+
+    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis"):
+        self.film = film
+        self.stats = stats
+        self.name = name
+        self.integrator = integrator
+        self._array: Optional["np.ndarray"] = None
+        self._estimate: Optional["NoiseEstimate"] = None
+
+    @property
+    def array(self) -> "np.ndarray":
+        if self._array is None:
+            import numpy as np
+
+            self._array = self.film.mean().astype(np.float32)
+            self._array.flags.writeable = False
+        return self._array
+
+    def __array__(self, dtype=None, copy=None):
+        import numpy as np
+
+        return np.array(self.array, dtype=dtype, copy=True)
+
+    @property
+    def width(self) -> int:
+        return self.film.width
+
+    @property
+    def height(self) -> int:
+        return self.film.height
+
+    @property
+    def samples(self) -> int:
+        return self.film.samples
+
+    @property
+    def noise_estimate(self) -> "NoiseEstimate":
+        if self._estimate is None:
+            from renderer.film import estimate_noise
+
+            self._estimate = estimate_noise(self.film)
+        return self._estimate
+
+    @property
+    def noise(self) -> float:
+        return self.noise_estimate.relative_rms
+
+    @property
+    def noise_map(self) -> "np.ndarray":
+        return self.noise_estimate.error
+
+    def save(self, path: Union[str, Path], exposure: Optional[float] = None) -> Path:
+        """Write the image by the file's suffix: .png (exposure in stops scales it first), .pfm or
+        .exr (linear, unchanged). Written atomically; returns the path."""
+        from renderer.film import write_image
+
+        path = Path(path)
+        image = self.film.mean()
+        if exposure:
+            if path.suffix.lower() != ".png":
+                raise ValueError("exposure applies to a PNG only; .pfm and .exr keep the rendered radiance")
+            image = image * 2.0 ** exposure
+        write_image(path, image)
+        return path
+
+    def png_bytes(self, exposure: Optional[float] = None) -> bytes:
+        """The 8-bit PNG `save` would write, as bytes."""
+        from PIL import Image as PILImage
+
+        from renderer.film import to_srgb8
+
+        image = self.film.mean()
+        if exposure:
+            image = image * 2.0 ** exposure
+        buffer = io.BytesIO()
+        PILImage.fromarray(to_srgb8(image), "RGB").save(buffer, format="PNG")
+        return buffer.getvalue()
+
+    def _repr_png_(self) -> bytes:
+        return self.png_bytes()
+
+    def __repr__(self) -> str:
+        noise = f"noise {100 * self.noise:.2f}%" if math.isfinite(self.noise) else "noise not estimated"
+        name = f" {self.name}" if self.name else ""
+        return f"<rt.Image{name} {self.width}x{self.height}, {self.samples} spp ({self.integrator}), {noise}>"
+
+
+def _seconds(time: Union[None, float, int, str]) -> Optional[float]:
+    if time is None:
+        return None
+    if isinstance(time, str):
+        from .render_job import parse_duration
+
+        seconds = parse_duration(time)
+        if seconds is None:
+            raise ValueError(f"time={time!r}: expected seconds or a duration such as 30s, 2m, 1h30m")
+        return seconds
+    if not (isinstance(time, (int, float)) and math.isfinite(time) and time > 0):
+        raise ValueError(f"time={time!r}: expected a positive number of seconds")
+    return float(time)
+
+
+def _check_int(name: str, value: Optional[int], low: int, high: int) -> None:
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high):
+        raise ValueError(f"{name}={value!r}: expected a whole number from {low} to {high}")
+
+
+def render(
+    scene: SceneLike,
+    *,
+    spp: Optional[int] = None,
+    width: Optional[int] = None,
+    seed: Optional[int] = None,
+    time: Union[None, float, str] = None,
+    noise: Optional[float] = None,
+    integrator: Optional[str] = None,
+    max_depth: Optional[int] = None,
+    threads: Optional[int] = None,
+    overrides: Iterable[str] = (),
+    kernel: str = "auto",
+    progress: Union[bool, Callable[["RenderStats"], None]] = False,
+    should_stop: Optional[Callable[[], bool]] = None,
+) -> Image:
+    """Render a scene and return its `Image`; the options are those of `rt render`.
+
+    `scene`: a file name, a `scenefmt` `Scene`, a dict of a scene's data, or `rt.load`'s result.
+    `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis" or "path") override the file's
+    values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
+    with `spp` then the cap; `overrides` are `--set` arguments; `progress=True` shows the
+    progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
+    between passes and ends the render early with what is rendered.
+
+    Raises `rt.SceneError` (with `.diagnostics`) for an invalid scene and ValueError for an
+    invalid option or a scene the renderer cannot use (an image that does not decode).
+    """
+    import sys
+
+    from renderer.variants import KERNEL_CHOICES, features_of
+
+    from .render_job import BUDGET_SAMPLE_CAP, Progress, flatten
+
+    _check_int("spp", spp, 1, 1_000_000)
+    _check_int("width", width, 1, 32768)
+    _check_int("max_depth", max_depth, 1, 10_000)
+    _check_int("seed", seed, 0, 2**63 - 1)
+    _check_int("threads", threads, 1, 1 << 16)
+    if integrator is not None and integrator not in ("mis", "path"):
+        raise ValueError(f"integrator={integrator!r}: expected 'mis' or 'path'")
+    if kernel not in KERNEL_CHOICES:
+        raise ValueError(f"kernel={kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
+    if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
+        raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
+    budget = _seconds(time)
+
+    loaded = load(scene, overrides)
+    graph, flat = flatten(loaded, width, integrator)
+    from renderer.flat import Frame
+
+    frame = Frame.of(graph)
+    budgeted = budget is not None or noise is not None
+    target = spp if spp is not None else (BUDGET_SAMPLE_CAP if budgeted else frame.samples)
+    bar = Progress(target, budget, noise) if progress is True else None
+    report = bar if bar is not None else (progress or None)
+
+    def notify(message: str) -> None:
+        if bar is not None:
+            bar.notify(message)
+        else:
+            sys.stderr.write(message + "\n")
+
+    import numba
+
+    from renderer.render import render_flat
+
+    before = numba.get_num_threads()
+    if threads is not None:
+        if threads > numba.config.NUMBA_NUM_THREADS:
+            raise ValueError(f"threads={threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available")
+        numba.set_num_threads(threads)
+    try:
+        result = render_flat(
+            flat, frame, samples=target, max_depth=max_depth, seed=seed, progress=report, should_stop=should_stop,
+            time_budget=budget, noise_target=noise, needed=features_of(graph), kernel=kernel, notify=notify,
+        )
+    finally:
+        numba.set_num_threads(before)
+        if bar is not None:
+            bar.close()
+    name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
+    return Image(result.film, result.stats, name, frame.integrator)

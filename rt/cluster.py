@@ -85,7 +85,8 @@ def connect(spec, workers: Optional[int] = None) -> Connection:
 
         count = workers or os.cpu_count() or 1
         cluster = distributed.LocalCluster(
-            n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.ERROR,
+            n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0",
+            silence_logs=logging.ERROR,
         )
         return Connection(distributed.Client(cluster, set_as_default=False), cluster)
     if "://" not in spec and ":" not in spec:

@@ -237,6 +237,7 @@ def render(
     kernel: str = "auto",
     progress: Union[bool, Callable[["RenderStats"], None]] = False,
     should_stop: Optional[Callable[[], bool]] = None,
+    cluster: Any = None,
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -246,6 +247,10 @@ def render(
     with `spp` then the cap; `overrides` are `--set` arguments; `progress=True` shows the
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
     between passes and ends the render early with what is rendered.
+
+    `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
+    scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
+    A Client is used as is and left open; a cluster started for "local" is closed at the end.
 
     Raises `rt.SceneError` (with `.diagnostics`) for an invalid scene and ValueError for an
     invalid option or a scene the renderer cannot use (an image that does not decode).
@@ -269,8 +274,11 @@ def render(
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
 
-    loaded = load(scene, overrides)
-    graph, flat = flatten(loaded, width, integrator)
+    from scenefmt.files import recording_reads
+
+    with recording_reads() as reads:  # the files a cluster's workers need
+        loaded = load(scene, overrides)
+        graph, flat = flatten(loaded, width, integrator)
     from renderer.flat import Frame
 
     frame = Frame.of(graph)
@@ -295,13 +303,36 @@ def render(
             raise ValueError(f"threads={threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available")
         numba.set_num_threads(threads)
     try:
-        result = render_flat(
-            flat, frame, samples=target, max_depth=max_depth, seed=seed, progress=report, should_stop=should_stop,
-            time_budget=budget, noise_target=noise, needed=features_of(graph), kernel=kernel, notify=notify,
-        )
+        if cluster is not None:
+            result = _render_on_cluster(cluster, scene, reads, loaded, flat, frame, graph, overrides, width, integrator,
+                                        target=target, max_depth=max_depth, seed=seed, progress=report,
+                                        should_stop=should_stop, time_budget=budget, noise_target=noise, kernel=kernel,
+                                        notify=notify)
+        else:
+            result = render_flat(
+                flat, frame, samples=target, max_depth=max_depth, seed=seed, progress=report, should_stop=should_stop,
+                time_budget=budget, noise_target=noise, needed=features_of(graph), kernel=kernel, notify=notify,
+            )
     finally:
         numba.set_num_threads(before)
         if bar is not None:
             bar.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
     return Image(result.film, result.stats, name, frame.integrator)
+
+
+def _render_on_cluster(cluster, scene, reads, loaded, flat, frame, graph, overrides, width, integrator, *, target, kernel,
+                       **options):
+    """`render` on a Dask cluster (rt/cluster.py); raises rt.cluster.ClusterError (a RuntimeError) with a sentence."""
+    from renderer.variants import features_of, first_kernel
+
+    from .cluster import connect, package_scene, render_on_cluster
+
+    is_file = isinstance(scene, (str, Path)) and str(scene) != "-"
+    package = package_scene(str(scene) if is_file else None, reads, loaded, flat, tuple(overrides), None, width, integrator)
+    connection = connect(cluster)
+    try:
+        return render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features_of(graph), kernel),
+                                 samples=target, **options)
+    finally:
+        connection.close()

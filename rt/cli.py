@@ -242,6 +242,12 @@ def render(
         help="Which compiled kernel renders: auto (whatever is compiled; specialise a long render), general, or "
         "specialised (compile one for this scene's effects first).",
     ),
+    cluster: Optional[str] = typer.Option(
+        None, "--cluster", metavar="local|tcp://HOST:PORT",
+        help="Render on a Dask cluster: local starts worker processes on this machine; an address uses a running "
+        "dask scheduler. The image is the same as without, bit for bit. Needs pip install 'rt-render[cluster]'; "
+        "see docs/cluster.md.",
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -254,7 +260,7 @@ def render(
         scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
-        syntax=syntax.value if syntax else None,
+        syntax=syntax.value if syntax else None, cluster=cluster,
     )
     try:
         if len(scenes) == 1:

@@ -42,6 +42,7 @@ class RenderOptions:
     overrides: tuple[str, ...] = ()  # --set KEY.PATH=VALUE, in order
     exposure: Optional[float] = None  # --exposure: stops applied to the PNG only
     syntax: Optional[str] = None  # --format: yaml or json
+    cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
 
     @property
     def from_stdin(self) -> bool:
@@ -66,6 +67,8 @@ class PreparedScene:
     budget_seconds: Optional[float]  # --time in seconds
     # sha256 of the scene's canonical JSON, for --resume and --save-state (None without them).
     fingerprint: Optional[str]
+    # The scene as data for cluster workers (rt.cluster.package_scene), with --cluster only.
+    package: Optional[object] = None
 
 
 def parse_duration(text: str) -> Optional[float]:
@@ -177,9 +180,12 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load_source
 
+    from scenefmt.files import recording_reads
+
     try:
-        loaded = load_source(opts.scene, opts.overrides, opts.syntax)
-        graph, flat = flatten(loaded, opts.width, opts.integrator)
+        with recording_reads() as reads:  # the files a cluster's workers need
+            loaded = load_source(opts.scene, opts.overrides, opts.syntax)
+            graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
             say(str(diag), err=True)
@@ -203,7 +209,13 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         from scenefmt.writing import dumps
 
         fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
-    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint)
+    package = None
+    if opts.cluster is not None:
+        from .cluster import package_scene
+
+        package = package_scene(None if opts.from_stdin else str(opts.scene), reads, loaded, flat, opts.overrides, opts.syntax,
+                                opts.width, opts.integrator)
+    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package)
 
 
 class Progress:
@@ -273,17 +285,40 @@ class Progress:
 def run(opts: RenderOptions, started: float) -> None:
     """The whole command; `started` is when it started (time.perf_counter), for the summary.
     Raises Stop for any end but success."""
-    render_prepared(opts, prepare(opts), started)
+    scene = prepare(opts)  # a scene error is reported here, once, before any cluster is asked
+    if opts.cluster is None:
+        render_prepared(opts, scene, started)
+        return
+    connection = cluster_connection(opts.cluster)
+    try:
+        render_prepared(opts, scene, started, connection)
+    finally:
+        connection.close()
 
 
-def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -> None:
-    """Render a prepared scene and write its images. Raises Stop for any end but success."""
+def cluster_connection(spec: str):
+    """The cluster --cluster names (rt/cluster.py), said on standard error; Stop(1) if it cannot be reached."""
+    from .cluster import ClusterError, connect
+
+    try:
+        connection = connect(spec)
+        say(f"cluster: {connection.description}", err=True)
+    except ClusterError as exc:
+        raise fail(f"error: {exc}")
+    return connection
+
+
+def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, connection=None) -> None:
+    """Render a prepared scene and write its images, on the cluster of `connection` if given
+    (rt.cluster.Connection). Raises Stop for any end but success."""
     import signal
 
     import numba
 
     from renderer.render import render_flat
     from renderer.variants import first_kernel
+
+    from .cluster import ClusterError  # dask itself is imported only for a cluster
 
     frame = scene.frame
     if opts.threads is not None:
@@ -338,12 +373,23 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float) -
     previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = Progress(target, scene.budget_seconds, opts.noise)
     try:
-        result = render_flat(
-            flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
-            should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
-            noise_target=opts.noise, needed=features, kernel=opts.kernel, notify=bar.notify,
-        )
+        if connection is not None:
+            from .cluster import render_on_cluster
+
+            result = render_on_cluster(
+                connection.client, scene.package, flat, frame, features=first_kernel(features, opts.kernel), samples=target,
+                max_depth=opts.max_depth, seed=opts.seed, progress=bar, should_stop=lambda: stop["requested"], film=film,
+                time_budget=scene.budget_seconds, noise_target=opts.noise, notify=bar.notify,
+            )
+        else:
+            result = render_flat(
+                flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
+                should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
+                noise_target=opts.noise, needed=features, kernel=opts.kernel, notify=bar.notify,
+            )
     except ValueError as exc:
+        failure = str(exc)
+    except ClusterError as exc:
         failure = str(exc)
     else:
         failure = None
@@ -426,15 +472,20 @@ def run_batch(opts: RenderOptions, scenes: list) -> None:
     Stop(130) at once on Ctrl-C."""
     each = batch_options(opts, scenes)
     failed = []
-    for i, scene_opts in enumerate(each, 1):
-        say(f"[{i}/{len(each)}] {scene_opts.scene}", err=True)
-        started = time.perf_counter()
-        try:
-            render_prepared(scene_opts, prepare(scene_opts), started)
-        except Stop as stop:
-            if stop.status == 130:
-                say(f"interrupted: {len(each) - i} scene(s) not rendered", err=True)
-                raise
-            failed.append(str(scene_opts.scene))
+    connection = cluster_connection(opts.cluster) if opts.cluster is not None else None
+    try:
+        for i, scene_opts in enumerate(each, 1):
+            say(f"[{i}/{len(each)}] {scene_opts.scene}", err=True)
+            started = time.perf_counter()
+            try:
+                render_prepared(scene_opts, prepare(scene_opts), started, connection)
+            except Stop as stop:
+                if stop.status == 130:
+                    say(f"interrupted: {len(each) - i} scene(s) not rendered", err=True)
+                    raise
+                failed.append(str(scene_opts.scene))
+    finally:
+        if connection is not None:
+            connection.close()
     if failed:
         raise fail(f"error: {len(failed)} of {len(each)} scenes failed: {', '.join(failed)}")

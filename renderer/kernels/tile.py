@@ -1,0 +1,54 @@
+"""One tile of the image, serially: the unit of work of a render on a Dask cluster.
+
+`render_tile` adds samples to a rectangle of pixels exactly as `integrator.render_pass` adds
+them to the whole image: the same camera ray and path for each (pixel, sample), and each
+pixel's sums continued in ascending sample order from the sums it is given. So a tile continued
+round after round holds, bit for bit, the sums of the same pixels of a local render, however
+the samples were split into rounds (see renderer/distributed.py).
+
+It runs on one thread and releases the GIL: a Dask worker with several threads runs several
+tiles at once, and no Numba threading layer is started inside a worker.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..camera import camera_ray
+from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
+from .integrator import trace
+from .rng import path_key
+
+
+@njit(nogil=True, cache=True, error_model="numpy")
+def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
+    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the sums of the
+    tile whose top left pixel is (x0, y0) in an image `width` pixels wide; the tile's size is
+    that of `total` (rows, columns, 3). `row_rays` and `row_bad` count per row of the tile."""
+    tile_h, tile_w = total.shape[0], total.shape[1]
+    stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
+    tstack = np.empty((BVH_STACK, 2))
+    for k in range(tile_h):
+        j = y0 + k
+        rays = 0
+        bad = 0
+        for t in range(tile_w):
+            i = x0 + t
+            pixel = j * width + i
+            for s in range(sample_start, sample_start + sample_count):
+                key = path_key(seed, pixel, s)
+                o, d, time = camera_ray(S.camera, i, j, key)
+                r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
+                rays += n
+                if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+                    bad += 1  # counted and reported, never added to the image
+                    continue
+                total[k, t, 0] += r
+                total[k, t, 1] += g
+                total[k, t, 2] += b
+                total_sq[k, t, 0] += r * r
+                total_sq[k, t, 1] += g * g
+                total_sq[k, t, 2] += b * b
+        row_rays[k] += rays
+        row_bad[k] += bad

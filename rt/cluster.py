@@ -1,0 +1,288 @@
+"""Rendering on a Dask cluster: `rt render --cluster local|tcp://HOST:PORT` and `rt.render(cluster=...)`.
+
+The client (this process) reads and flattens the scene as a local render does, so a scene
+error is reported here, once, before any worker is asked; it then ships the scene's files as
+bytes (`chunks.ScenePackage`), submits chunks (a tile and a range of samples each, see
+rt/chunks.py) and merges their sums into the film in a fixed order. Dask runs the chunks,
+moves the data and computes again whatever a dead worker lost.
+
+dask.distributed is an optional dependency (`pip install 'rt-render[cluster]'`): it is
+imported only here, only when a cluster is asked for.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from . import chunks
+
+CONNECT_SECONDS = 5.0  # to reach a scheduler given by address
+WORKERS_SECONDS = 60.0  # to wait for a first worker to join
+POLL_SECONDS = 0.2  # between checks of Ctrl-C and the time budget while chunks run
+MISSING = "rendering on a cluster needs dask.distributed: pip install 'rt-render[cluster]'"
+
+
+class ClusterError(RuntimeError):
+    """The cluster cannot be used or a chunk failed; the message is a sentence to show."""
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise ClusterError(MISSING) from None
+    return distributed
+
+
+@dataclass
+class Connection:
+    """A client and, for `local`, the cluster this process started (closed with it)."""
+
+    client: Any
+    cluster: Any = None
+    owned: bool = True
+
+    @property
+    def description(self) -> str:
+        info = self.client.scheduler_info()
+        workers = info.get("workers", {})
+        threads = sum(w.get("nthreads", 0) for w in workers.values())
+        where = "a local cluster" if self.cluster is not None else f"the scheduler at {self.client.scheduler.address}"
+        return f"{where}: {len(workers)} workers, {threads} threads"
+
+    def close(self) -> None:
+        if not self.owned:
+            return
+        try:
+            self.client.close(timeout=10)
+        except Exception:  # noqa: BLE001 - closing after a failure: nothing more to say
+            pass
+        if self.cluster is not None:
+            try:
+                self.cluster.close(timeout=10)
+            except Exception:  # noqa: BLE001
+                pass
+
+
+def connect(spec, workers: Optional[int] = None) -> Connection:
+    """A connection to the cluster `spec` names: "local" (a LocalCluster of worker processes on
+    this machine, one single-thread worker per core unless `workers` says), an address
+    ("tcp://HOST:PORT") of a running scheduler, or a `dask.distributed.Client` (used as is,
+    never closed here). Raises ClusterError within about CONNECT_SECONDS if none answers."""
+    distributed = _distributed()
+    if isinstance(spec, distributed.Client):
+        return Connection(spec, owned=False)
+    if not isinstance(spec, str):
+        raise ClusterError(f"cluster={spec!r}: expected 'local', a scheduler address such as tcp://host:8786, or a dask Client")
+    if spec == "local":
+        import logging
+
+        count = workers or os.cpu_count() or 1
+        cluster = distributed.LocalCluster(
+            n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0",
+            silence_logs=logging.ERROR,
+        )
+        return Connection(distributed.Client(cluster, set_as_default=False), cluster)
+    if "://" not in spec and ":" not in spec:
+        raise ClusterError(f"--cluster {spec!r}: expected local or a scheduler address such as tcp://host:8786")
+    try:
+        client = distributed.Client(spec, timeout=CONNECT_SECONDS, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise ClusterError(f"--cluster {spec}: no Dask scheduler answers there within {CONNECT_SECONDS:g} s ({exc})") from None
+    except ValueError as exc:
+        raise ClusterError(f"--cluster {spec}: {exc}") from None
+    return Connection(client)
+
+
+def package_scene(main: Optional[str], reads: list, loaded, flat, overrides=(), syntax=None, width=None,
+                  integrator=None) -> chunks.ScenePackage:
+    """The scene as data for the workers. `main` is the scene file read (None for standard input,
+    a dict or a model: then its canonical JSON is sent, overrides applied); `reads` the files the
+    load opened (scenefmt.files.recording_reads)."""
+    from scenefmt.files import FileProblem, read_regular_file
+
+    files = {}
+    if main is None:
+        from scenefmt.writing import dumps
+
+        main = os.path.join(os.getcwd(), ".rt-cluster-scene.json")
+        files[main] = dumps(loaded.scene, "json").encode("utf-8")
+        overrides, syntax = (), "json"
+    else:
+        main = os.path.abspath(main)
+    for path in reads:
+        if path in files:
+            continue
+        try:
+            files[path] = read_regular_file(path, 1 << 32)
+        except FileProblem:
+            continue  # a file the load tried and did without
+    return chunks.ScenePackage(
+        main=main, files=tuple(sorted(files.items())), overrides=tuple(overrides), syntax=syntax, width=width,
+        integrator=integrator, digest=chunks.flat_digest(flat), renderer=chunks.renderer_version(),
+    )
+
+
+def render_on_cluster(
+    client,
+    package: chunks.ScenePackage,
+    flat,
+    frame,
+    *,
+    features,
+    samples: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    seed: Optional[int] = None,
+    film=None,
+    progress: Optional[Callable] = None,
+    should_stop: Optional[Callable[[], bool]] = None,
+    time_budget: Optional[float] = None,
+    noise_target: Optional[float] = None,
+    notify: Optional[Callable[[str], None]] = None,
+    chunk_seconds: float = chunks.CHUNK_SECONDS,
+    threads: Optional[int] = None,
+):
+    """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
+    same options and the same result (a RenderResult); the image is the local one bit for bit."""
+    distributed = _distributed()
+    from renderer.film import Film, relative_noise
+    from renderer.kernels.integrator import INTEGRATORS
+    from renderer.render import MIN_SAMPLES_FOR_NOISE, RenderResult, RenderStats
+
+    width, height = frame.width, frame.height
+    target = samples if samples is not None else frame.samples
+    depth = max_depth if max_depth is not None else frame.max_depth
+    seed = seed if seed is not None else frame.seed
+    estimator = INTEGRATORS[frame.integrator]
+    stats = RenderStats(target_samples=target, features=features)
+    if film is None:
+        film = Film.empty(width, height)
+    stats.samples = film.samples
+
+    # The kernel, compiled once into the disk cache that workers on this machine load from.
+    if notify is not None and not chunks.tile_ready_marker(features).is_file():
+        notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
+    stats.kernel_seconds = chunks.warm_tile_kernel(flat, features)
+
+    if threads is None:
+        try:
+            client.wait_for_workers(1, timeout=WORKERS_SECONDS)
+        except (TimeoutError, OSError) as exc:
+            raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
+        threads = sum(w.get("nthreads", 0) for w in client.scheduler_info()["workers"].values()) or 1
+    tiles = chunks.plan_tiles(width, height, threads)
+    rounds = chunks.Rounds(film.samples, target)
+    features_arg = features
+    scene = client.submit(chunks.package_value, package, key=f"rt-scene-{package.key}-{os.urandom(4).hex()}", pure=False)
+
+    # Per tile: its sums after the last round it finished, and those of rounds not merged yet.
+    latest = [(t.of(film.total).copy(), t.of(film.total_sq).copy()) for t in tiles]
+    done = [0] * len(tiles)  # rounds each tile has finished
+    ahead: list[dict] = [{} for _ in tiles]  # round -> ChunkResult, for rounds past the merged film
+    merged = 0  # rounds merged into the film
+    running: dict = {}  # future -> (tile index, round)
+    cost = [0.0, 0]  # chunk seconds, pixel-samples: the measured speed
+    render_start = time.perf_counter()
+    last_noise = render_start
+    stop_submitting = film.samples >= target
+
+    def budget_left() -> Optional[float]:
+        return None if time_budget is None else time_budget - (time.perf_counter() - render_start)
+
+    def submit(i: int) -> None:
+        r = done[i]
+        if r >= rounds.planned:
+            if rounds.last_end() >= target or stop_submitting:
+                return
+            speed = cost[0] / cost[1] if cost[1] else 0.0
+            previous = rounds.bounds[-1] - rounds.bounds[-2] if rounds.planned else 0
+            size = chunks.next_round_size(previous, speed, max(t.pixels for t in tiles), target - rounds.last_end(),
+                                          budget_left(), width * height, threads, chunk_seconds)
+            rounds.plan(size)
+        start, count = rounds.range(r)
+        chunk = chunks.Chunk(tiles[i], r, start, count, width, seed, depth, estimator)
+        total, total_sq = latest[i]
+        future = client.submit(chunks.render_chunk, scene, features_arg, chunk, total, total_sq, pure=False,
+                               key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
+        running[future] = (i, r)
+
+    def may_submit(i: int) -> bool:
+        return (not stop_submitting and done[i] < merged + chunks.LOOKAHEAD and not any(v[0] == i for v in running.values()))
+
+    try:
+        for i in range(len(tiles)):
+            if may_submit(i):
+                submit(i)
+        while running:
+            if should_stop is not None and should_stop():
+                stats.interrupted = True
+                stats.stop_reason = "interrupted"
+                break
+            left = budget_left()
+            if left is not None and left <= 0 and film.samples > rounds.start:
+                stats.stop_reason = "time"
+                break
+            try:
+                finished, _ = distributed.wait(list(running), timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # none finished yet: look at Ctrl-C and the budget again
+                finished = ()
+            for future in finished:
+                i, r = running.pop(future)
+                try:
+                    result = future.result()
+                except Exception as exc:  # noqa: BLE001 - a lost task, cancelled by the scheduler, ...
+                    raise ClusterError(f"a chunk could not be rendered on the cluster: {type(exc).__name__}: {exc}") from None
+                if result.error is not None:
+                    raise ClusterError(result.error)
+                latest[i] = (result.total, result.total_sq)
+                ahead[i][r] = result
+                done[i] = r + 1
+                cost[0] += result.seconds
+                cost[1] += tiles[i].pixels * rounds.range(r)[1]
+            # Merge every round that all tiles have finished, in tile order.
+            while merged < rounds.planned and all(merged in a for a in ahead):
+                for tile, a in zip(tiles, ahead):
+                    result = a.pop(merged)
+                    tile.of(film.total)[...] = result.total
+                    tile.of(film.total_sq)[...] = result.total_sq
+                    stats.rays += result.rays
+                    stats.bad_samples += result.bad
+                merged += 1
+                film.samples = rounds.bounds[merged]
+                stats.samples = film.samples
+                stats.seconds = time.perf_counter() - render_start
+                if stats.first_pass_seconds == 0.0:
+                    stats.first_pass_seconds = stats.seconds
+                now = time.perf_counter()
+                if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
+                    stats.noise = relative_noise(film)
+                    last_noise = now
+                if progress is not None:
+                    progress(stats)
+                if noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target:
+                    stats.stop_reason = "noise"
+                    stop_submitting = True
+                    break
+                if film.samples >= target:
+                    stop_submitting = True
+            if stats.stop_reason == "noise":
+                break
+            if left is not None and left <= 0:
+                stop_submitting = film.samples > rounds.start or stop_submitting
+            for i in range(len(tiles)):
+                if may_submit(i):
+                    submit(i)
+    finally:
+        # Cancel what is still running (a budget, Ctrl-C, a failure): the film keeps every merged round.
+        if running:
+            client.cancel(list(running), force=True)
+        client.cancel([scene], force=True)
+    stats.seconds = time.perf_counter() - render_start
+    stats.noise = relative_noise(film)
+    return RenderResult(film, stats)

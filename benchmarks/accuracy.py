@@ -244,8 +244,8 @@ def main() -> int:
                   "reference as above (rendered with `mis`; both converge to it); the error leaves out the pixels that see a "
                   "light directly (their value is the light's, and their noise is where in the pixel its edge falls, which "
                   "light sampling does not change). *Ratio* is path's error over mis's at "
-                  f"equal time (mis's time at {INTEGRATOR_SPP[-1]} spp). `benchmarks/integrators.py` measures the same at "
-                  "full size.", "",
+                  f"equal time (mis's time at {INTEGRATOR_SPP[-1]} spp). At full size, and against Mitsuba 3, see "
+                  "[integrators.md](integrators.md) (`benchmarks/integrators.py`).", "",
                   "| scene | integrator | " + " | ".join(f"{n} spp: s, error" for n in INTEGRATOR_SPP) + " | ratio |",
                   "|---|---|" + "---|" * len(INTEGRATOR_SPP) + "---|"]
         for name, rows in studies.items():

@@ -133,6 +133,8 @@ def transform_problem(m: Affine) -> Optional[str]:
 
 def check_transform(steps, path: tuple, report: Callable[[tuple, str], None]) -> None:
     """Report at the first step after which the product of `steps` is unusable."""
+    if not steps:
+        return  # the identity
     m: Affine = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
     for i, step in enumerate(steps):
         m = compose(step_matrix(step), m)
@@ -252,8 +254,11 @@ class SceneBounds:
         self.facts[key] = facts  # cycles are refused before this walk; this guards it anyway
         self.groups_seen[key] = group
         has_own = False
+        stretches: dict = {}  # a group's many shapes share a few transforms
         for member in group.members:
-            stretch = Stretch.of(member.transform)
+            stretch = stretches.get(member.transform)
+            if stretch is None:
+                stretch = stretches[member.transform] = Stretch.of(member.transform)
             if member.kind == "instance":
                 inner = self.group(member.group)
                 extent, size = inner.extent, inner.size

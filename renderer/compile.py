@@ -103,6 +103,7 @@ class _Walk:
         self.own_instance: dict[int, int] = {}
         # A scene's many shapes share a few transforms.
         self.similarities: dict[tuple, tuple] = {}
+        self.last_transform, self.last_similar = None, False
 
     def _material_row(self, key: int, rows: tuple[list, list]) -> int:
         if key not in self.mat_rows:
@@ -179,8 +180,12 @@ class _Walk:
     def plain_sphere(self, member) -> bool:
         """Whether member is a sphere with a material, no medium and a similarity transform: one
         of a run that `spheres.flatten_run` flattens at once."""
-        return (type(member) is ShapeNode and member.model.type == "sphere" and member.interior is None
-                and member.material is not None and self.similarity(member.transform)[1] is not None)
+        if type(member) is not ShapeNode or member.interior is not None or member.material is None or member.model.type != "sphere":
+            return False
+        m = member.transform
+        if m is not self.last_transform:  # shapes without transform steps share one object
+            self.last_transform, self.last_similar = m, self.similarity(m)[1] is not None
+        return self.last_similar
 
     def sphere_run(self, tree: _Tree, run: list) -> None:
         """Add a run of plain spheres: grouped by material and transform, in their order."""

@@ -17,6 +17,7 @@ import numpy as np
 
 from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
+from scenefmt.loading import paused_gc
 
 from . import background, camera, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
@@ -389,9 +390,10 @@ def with_width(graph: SceneGraph, width: int) -> SceneGraph:
 def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
     """Flatten `graph` into the arrays the kernels read. Without `use_bvh` every tree is a single
     leaf, so each ray tests every primitive: the brute-force reference the BVH must agree with."""
-    walk = _Walk(graph)
-    walk.place(graph.root, affine.IDENTITY)
-    return _assemble(walk, use_bvh)
+    with paused_gc():
+        walk = _Walk(graph)
+        walk.place(graph.root, affine.IDENTITY)
+        return _assemble(walk, use_bvh)
 
 
 def camera_values(graph: SceneGraph) -> list[float]:

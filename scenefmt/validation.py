@@ -17,7 +17,7 @@ from .diagnostics import Diagnostic, SceneError
 from .errors import data_path, diagnostics_from
 from .graph import SceneGraph, build_graph, graph_problems
 from .includes import resolve_includes
-from .loading import SourceDocument, parse_file, parse_stream, parse_text
+from .loading import SourceDocument, parse_file, parse_stream, parse_text, paused_gc
 from .overrides import apply_overrides
 from .scene import Scene
 
@@ -100,18 +100,21 @@ def compose(doc: SourceDocument, overrides: Iterable[str] = ()) -> SourceDocumen
 def load(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
     """Load, validate and resolve a scene file (YAML or JSON), with its includes and `--set`
     overrides; raises `SceneError`."""
-    return check_document(compose(parse_file(path, syntax), overrides))
+    with paused_gc():
+        return check_document(compose(parse_file(path, syntax), overrides))
 
 
 def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = ()) -> LoadedScene:
     """Like `load`, from text (includes are relative to `base_dir`, by default the current folder)."""
-    return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
+    with paused_gc():
+        return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
 
 
 def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
     """Like `load`, from a binary stream (standard input), bounded as a file is; relative paths in it
     (includes, image textures) resolve from the current folder."""
-    return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
+    with paused_gc():
+        return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
 
 
 def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:

@@ -21,5 +21,6 @@ EMITTERS = True  # diffuse lights
 DIELECTRICS = True  # refraction
 SKY = True  # the sky-gradient background
 LIGHTS = True  # light sampling: shadow rays to points on emitters, weighted with the path's own hits
+MESHES = True  # triangle meshes: the ray's sheared frame and the watertight triangle test
 
-NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS")
+NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS", "MESHES")

@@ -54,6 +54,7 @@ class KernelFeatures:
     dielectrics: bool = True
     sky: bool = True
     lights: bool = True
+    meshes: bool = True
 
     @property
     def is_general(self) -> bool:

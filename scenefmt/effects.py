@@ -28,6 +28,7 @@ EFFECTS = (
     ("dielectrics", "dielectrics"),
     ("sky", "sky background"),
     ("lights", "light sampling"),
+    ("meshes", "triangle meshes"),
 )
 EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
@@ -117,6 +118,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     placed: list[tuple[Union[ShapeNode, InstanceNode], str]] = []
     emitters: list = []
     dielectrics: list = []
+    with_meshes: list[ShapeNode] = []
     textures_by_kind: dict[str, list[ShapeNode]] = {}
     similar: dict = {}  # transform -> whether it is a similarity
     kinds_of: dict = {}  # (material, medium) -> the kinds of texture they read, but solid
@@ -131,6 +133,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 moving.append(member)
             if member.interior is not None:
                 with_media.append(member)
+            if member.kind == "mesh":
+                with_meshes.append(member)
             if member.material is not None and member.material.kind == "diffuse_light":
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
@@ -170,6 +174,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
+    if with_meshes:
+        found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -19,6 +19,7 @@ the value that causes it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -161,7 +162,8 @@ def shape_extent_and_size(model, mesh=None) -> tuple[float, float]:
     if kind == "mesh":
         return _mesh_extent_and_size(mesh)
     if kind == "sphere":
-        return _sup(model.center) + model.radius, model.radius
+        x, y, z = model.center  # floats: _sup inlined, for the millions a generated scene holds
+        return max(abs(x), abs(y), abs(z)) + model.radius, model.radius
     if kind == "moving_sphere":
         return max(_sup(model.center0), _sup(model.center1)) + model.radius, model.radius
     if kind == "disk":
@@ -403,7 +405,13 @@ def check_memory(graph, document=None) -> MemoryEstimate:
             return document.diagnostic(path, message)
         return Diagnostic(graph.source or "<scene>", 0, 0, tuple(path), message)
 
-    estimate = estimate_memory(graph)
+    if graph.memory is not None:
+        # Only the film changes after loading: the rest was estimated with the graph, and walking
+        # a million shapes again took seconds.
+        estimate = dataclasses.replace(graph.memory, parts=dict(graph.memory.parts))
+        estimate.film = graph.image.width * graph.image.pixel_height * FILM_BYTES_PER_PIXEL
+    else:
+        estimate = estimate_memory(graph)
     problems = memory_problems(estimate, diagnostic)
     if problems:
         raise SceneError(problems)

@@ -126,11 +126,19 @@ def plain_spheres(items: Any) -> Any:
     at = _plain_sphere_items(items)
     if len(at) < PLAIN_SPHERES_AT_ONCE:
         return items
+    def numbers(at):
+        for i in at:
+            x, y, z = items[i]["center"]
+            yield x
+            yield y
+            yield z
+            yield items[i]["radius"]
+
     try:
-        values = np.array([items[i]["center"] + [items[i]["radius"]] for i in at], np.float64)
+        values = np.fromiter(numbers(at), np.float64, 4 * len(at)).reshape(-1, 4)
     except OverflowError:  # an integer beyond a float: left to pydantic, which says so at its place
         at = [i for i in at if all(-1e300 < v < 1e300 for v in items[i]["center"] + [items[i]["radius"]])]
-        values = np.array([items[i]["center"] + [items[i]["radius"]] for i in at], np.float64).reshape(-1, 4)
+        values = np.fromiter(numbers(at), np.float64, 4 * len(at)).reshape(-1, 4)
     # Number: finite, 0 or of magnitude MIN_MAGNITUDE to MAX_MAGNITUDE; the radius above 0.
     size = np.abs(values)
     good = ((values == 0) | ((size >= MIN_MAGNITUDE) & (size <= MAX_MAGNITUDE))).all(axis=1) & (values[:, 3] > 0)

@@ -2,7 +2,7 @@
 icosphere meshes of 20 k^2 triangles read from PLY files).
 
     python benchmarks/scaling.py [--max-exponent 6] [--spp 4]
-    python benchmarks/scaling.py --meshes [--max-triangles 3000000] [--spp 4]
+    python benchmarks/scaling.py --meshes [--max-triangles 3000000] [--spp 4] [--plot docs/meshes_scaling.png]
     python benchmarks/scaling.py --sphere-file 1000000 [--syntax json|yaml]
 
 Spheres are scattered uniformly through a fixed cube with radii shrinking as N^(-1/3), so the
@@ -52,7 +52,25 @@ shapes:
 """
 
 
-def meshes(max_triangles: int, spp: int) -> None:
+def plot(rows: list[tuple[int, float]], path: Path) -> None:
+    """Render time per sample against the number of triangles, on a log axis: a straight line is log N."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.2), dpi=120)
+    ax.plot([n for n, _ in rows], [ms for _, ms in rows], "o-")
+    ax.set_xscale("log")
+    ax.set_xlabel("triangles (icosphere)")
+    ax.set_ylabel("ms per sample, 96 x 96 px")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def meshes(max_triangles: int, spp: int, plot_to: Path | None = None) -> None:
     """File to first sample (read, check, flatten, tree), memory and render time per sample."""
     import tempfile
 
@@ -67,6 +85,7 @@ def meshes(max_triangles: int, spp: int) -> None:
         folder = Path(tmp)
         (folder / "scene.yaml").write_text(MESH_SCENE)
         warm = True
+        rows = []
         for splits in (3, 7, 22, 71, 224, 388, 708):
             n = 20 * splits * splits
             if n > max_triangles:
@@ -87,7 +106,10 @@ def meshes(max_triangles: int, spp: int) -> None:
             nbytes = sum(a.nbytes for a in flat)
             print(f"{n:>10} {t1 - t0:>7.2f} {t2 - t1:>15.2f} {t2 - t0 + first.stats.first_pass_seconds:>16.2f} "
                   f"{nbytes / n:>10.0f} {per_spp:>8.2f} {per_spp / math.log2(n):>16.3f}", flush=True)
+            rows.append((n, per_spp))
             del graph, flat, first, result
+    if plot_to is not None:
+        plot(rows, plot_to)
 
 
 def write_sphere_file(path: Path, n: int, seed: int = 1) -> None:
@@ -149,6 +171,7 @@ def main() -> int:
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--meshes", action="store_true", help="icosphere meshes from PLY files instead of spheres")
     parser.add_argument("--max-triangles", type=int, default=3_000_000)
+    parser.add_argument("--plot", type=Path, help="with --meshes: also plot ms per sample against N (needs matplotlib)")
     parser.add_argument("--sphere-file", type=int, metavar="N", help="time a scene file of N spheres from file to first sample")
     parser.add_argument("--syntax", choices=("json", "yaml"), default="json", help="the syntax of --sphere-file's scene")
     args = parser.parse_args()
@@ -156,7 +179,7 @@ def main() -> int:
         sphere_file(args.sphere_file, args.syntax)
         return 0
     if args.meshes:
-        meshes(args.max_triangles, args.spp)
+        meshes(args.max_triangles, args.spp, args.plot)
         return 0
     from renderer.compile import compile_scene
     from renderer.render import render

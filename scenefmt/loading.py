@@ -34,7 +34,10 @@ from .files import FileProblem, read_regular_file, read_stream
 
 MAX_FILE_BYTES = 128 * 1024 * 1024
 MAX_DEPTH = 64
-MAX_NODES = 10_000_000
+# Nodes of a document, counted before anything is built: YAML counts keys too (12 for a sphere written
+# {type: sphere, center: [x, y, z], radius: r, material: m}), JSON its values (8). A million such
+# spheres fit; with MAX_FILE_BYTES this bounds what parsing allocates (docs/robustness.md).
+MAX_NODES = 16_000_000
 # Values that aliases add by repeating their anchors: reuse (a material, a transform) adds a few
 # each time; a "billion laughs" adds millions, which a plain file of the same size could not.
 MAX_ALIASED = 200_000

@@ -2,7 +2,8 @@
 icosphere meshes of 20 k^2 triangles read from PLY files).
 
     python benchmarks/scaling.py [--max-exponent 6] [--spp 4]
-    python benchmarks/scaling.py --meshes [--max-triangles 3000000] [--spp 4]
+    python benchmarks/scaling.py --meshes [--max-triangles 3000000] [--spp 4] [--plot docs/meshes_scaling.png]
+    python benchmarks/scaling.py --sphere-file 1000000 [--syntax json|yaml]
 
 Spheres are scattered uniformly through a fixed cube with radii shrinking as N^(-1/3), so the
 picture stays alike while N grows. For each N it prints the time to build the scene (models,
@@ -51,7 +52,25 @@ shapes:
 """
 
 
-def meshes(max_triangles: int, spp: int) -> None:
+def plot(rows: list[tuple[int, float]], path: Path) -> None:
+    """Render time per sample against the number of triangles, on a log axis: a straight line is log N."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 3.2), dpi=120)
+    ax.plot([n for n, _ in rows], [ms for _, ms in rows], "o-")
+    ax.set_xscale("log")
+    ax.set_xlabel("triangles (icosphere)")
+    ax.set_ylabel("ms per sample, 96 x 96 px")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+
+
+def meshes(max_triangles: int, spp: int, plot_to: Path | None = None) -> None:
     """File to first sample (read, check, flatten, tree), memory and render time per sample."""
     import tempfile
 
@@ -66,6 +85,7 @@ def meshes(max_triangles: int, spp: int) -> None:
         folder = Path(tmp)
         (folder / "scene.yaml").write_text(MESH_SCENE)
         warm = True
+        rows = []
         for splits in (3, 7, 22, 71, 224, 388, 708):
             n = 20 * splits * splits
             if n > max_triangles:
@@ -86,7 +106,62 @@ def meshes(max_triangles: int, spp: int) -> None:
             nbytes = sum(a.nbytes for a in flat)
             print(f"{n:>10} {t1 - t0:>7.2f} {t2 - t1:>15.2f} {t2 - t0 + first.stats.first_pass_seconds:>16.2f} "
                   f"{nbytes / n:>10.0f} {per_spp:>8.2f} {per_spp / math.log2(n):>16.3f}", flush=True)
+            rows.append((n, per_spp))
             del graph, flat, first, result
+    if plot_to is not None:
+        plot(rows, plot_to)
+
+
+def write_sphere_file(path: Path, n: int, seed: int = 1) -> None:
+    """n spheres in the compact form a generator writes, one line each (JSON, or YAML flow maps)."""
+    rng = np.random.default_rng(seed)
+    centers = np.round(rng.uniform(-10, 10, (n, 3)), 4).tolist()
+    radius = round(2.0 * (100.0 / n) ** (1 / 3), 5)
+    if path.suffix == ".json":
+        head = ('{"camera": {"look_from": [0, 0, 30], "look_at": [0, 0, 0], "vfov": 45},\n'
+                '"image": {"width": 96, "aspect_ratio": 1, "samples_per_pixel": 1, "max_depth": 4},\n'
+                '"materials": {"white": {"type": "lambertian", "albedo": [0.7, 0.7, 0.7]}},\n"shapes": [\n')
+        rows = ",\n".join(f'{{"type": "sphere", "center": [{x}, {y}, {z}], "radius": {radius}, "material": "white"}}'
+                          for x, y, z in centers)
+        path.write_text(head + rows + "\n]}\n")
+    else:
+        head = ("camera: {look_from: [0, 0, 30], look_at: [0, 0, 0], vfov: 45}\n"
+                "image: {width: 96, aspect_ratio: 1, samples_per_pixel: 1, max_depth: 4}\n"
+                "materials: {white: {type: lambertian, albedo: [0.7, 0.7, 0.7]}}\nshapes:\n")
+        path.write_text(head + "".join(f"  - {{type: sphere, center: [{x}, {y}, {z}], radius: {radius}, material: white}}\n"
+                                       for x, y, z in centers))
+
+
+def sphere_file(n: int, syntax: str) -> None:
+    """File to first sample for n spheres, stage by stage, as `rt render` runs them."""
+    import tempfile
+
+    from renderer.compile import compile_scene
+    from renderer.render import render
+    from renderer.variants import features_of
+    from scenefmt.bounds import check_memory
+    from scenefmt.validation import load
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"spheres.{syntax}"
+        write_sphere_file(path, n)
+        small = Path(tmp) / f"small.{syntax}"
+        write_sphere_file(small, 100)
+        graph = load(small).graph  # compile the kernels once, outside the timings
+        render(graph, samples=1, flat=compile_scene(graph), features=features_of(graph))
+        clock = time.perf_counter
+        t0 = clock()
+        loaded = load(path)
+        t1 = clock()
+        check_memory(loaded.graph, loaded.document)
+        flat = compile_scene(loaded.graph)
+        features = features_of(loaded.graph)
+        t2 = clock()
+        first = render(loaded.graph, samples=1, flat=flat, features=features)
+        t3 = clock()
+        print(f"{n:,} spheres, {path.stat().st_size / 1e6:.0f} MB of {syntax.upper()}: read and check {t1 - t0:.2f} s, "
+              f"flatten and tree {t2 - t1:.2f} s, first sample {t3 - t2:.2f} s ({first.stats.first_pass_seconds:.2f} s "
+              f"rendering); file to first sample {t3 - t0:.2f} s")
 
 
 def main() -> int:
@@ -96,9 +171,15 @@ def main() -> int:
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--meshes", action="store_true", help="icosphere meshes from PLY files instead of spheres")
     parser.add_argument("--max-triangles", type=int, default=3_000_000)
+    parser.add_argument("--plot", type=Path, help="with --meshes: also plot ms per sample against N (needs matplotlib)")
+    parser.add_argument("--sphere-file", type=int, metavar="N", help="time a scene file of N spheres from file to first sample")
+    parser.add_argument("--syntax", choices=("json", "yaml"), default="json", help="the syntax of --sphere-file's scene")
     args = parser.parse_args()
+    if args.sphere_file:
+        sphere_file(args.sphere_file, args.syntax)
+        return 0
     if args.meshes:
-        meshes(args.max_triangles, args.spp)
+        meshes(args.max_triangles, args.spp, args.plot)
         return 0
     from renderer.compile import compile_scene
     from renderer.render import render

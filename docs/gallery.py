@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "gallery"
 WIDTH = 256
 # Samples per pixel: more where the light is small or the scene is mostly indirect.
-SPP = {"cornell_box": 512, "cornell_smoke": 256, "final_scene": 512, "simple_light": 256}
+SPP = {"cornell_box": 512, "cornell_knot": 512, "cornell_smoke": 256, "final_scene": 512, "simple_light": 256}
 DEFAULT_SPP = 128
 
 

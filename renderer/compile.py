@@ -17,20 +17,22 @@ import numpy as np
 
 from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
+from scenefmt.loading import paused_gc
 
 from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
 from .materials import MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
-from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, meshes
+from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
 from .textures import TextureTables
 
 
 class _Tree:
-    """The primitives of one bottom-level tree, in the order they were added."""
+    """The primitives of one bottom-level tree, in the order they were added: rows added one by
+    one, and runs of rows made in numpy (`add_block`), kept in order as blocks."""
 
     def __init__(self):
         self.kind: list[int] = []
@@ -38,6 +40,8 @@ class _Tree:
         self.rows: list[list] = []
         self.lo: list[tuple] = []  # bounds over the shutter interval
         self.hi: list[tuple] = []
+        self.blocks: list[tuple] = []  # (kind, material, rows, lo, hi) arrays
+        self.count = 0
         self.meshes: list[tuple[meshes.MeshRows, int]] = []  # (rows, material row), in numpy
 
     @property
@@ -50,12 +54,33 @@ class _Tree:
         self.rows.append(row)
         self.lo.append(lo)
         self.hi.append(hi)
+        self.count += 1
+
+    def add_block(self, kind: int, material: int, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        self._close_block()
+        n = len(rows)
+        self.blocks.append((np.full(n, kind, np.int32), np.full(n, material, np.int32), rows, lo, hi))
+        self.count += n
+
+    def _close_block(self) -> None:
+        if self.kind:
+            self.blocks.append((np.array(self.kind, np.int32), np.array(self.material, np.int32),
+                                np.array(self.rows, np.float64).reshape(-1, PRIM_WIDTH),
+                                np.array(self.lo, np.float64).reshape(-1, 3), np.array(self.hi, np.float64).reshape(-1, 3)))
+            self.kind, self.material, self.rows, self.lo, self.hi = [], [], [], [], []
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """kind, material, rows, lo and hi of every primitive, in the order added."""
+        self._close_block()
+        if len(self.blocks) != 1:
+            self.blocks = [tuple(np.concatenate(parts) for parts in zip(*self.blocks))]
+        return self.blocks[0]
 
     def __len__(self) -> int:
-        return len(self.kind)
+        return self.count
 
     def empty(self) -> bool:
-        return not self.kind and not self.meshes
+        return not self.count and not self.meshes
 
 
 class _Walk:
@@ -79,6 +104,7 @@ class _Walk:
         self.own_instance: dict[int, int] = {}
         # A scene's many shapes share a few transforms.
         self.similarities: dict[tuple, tuple] = {}
+        self.last_transform, self.last_similar = None, False
 
     def _material_row(self, key: int, rows: tuple[list, list]) -> int:
         if key not in self.mat_rows:
@@ -152,8 +178,39 @@ class _Walk:
             elif id(member) in self.own_instance:
                 self.instances.append((self.own_instance[id(member)], affine.compose(world_from_group, member.transform)))
 
+    def plain_sphere(self, member) -> bool:
+        """Whether member is a sphere with a material, no medium and a similarity transform: one
+        of a run that `spheres.flatten_run` flattens at once."""
+        if type(member) is not ShapeNode or member.interior is not None or member.material is None or member.model.type != "sphere":
+            return False
+        m = member.transform
+        if m is not self.last_transform:  # shapes without transform steps share one object
+            self.last_transform, self.last_similar = m, self.similarity(m)[1] is not None
+        return self.last_similar
+
+    def sphere_run(self, tree: _Tree, run: list) -> None:
+        """Add a run of plain spheres: grouped by material and transform, in their order."""
+        start = 0
+        for k in range(1, len(run) + 1):
+            if k == len(run) or run[k].material is not run[start].material or run[k].transform != run[start].transform:
+                part = run[start:k]
+                m = part[0].transform
+                lin, s = self.similarity(m)
+                centers = np.array([shape.model.center for shape in part], np.float64).reshape(-1, 3)
+                radii = np.array([shape.model.radius for shape in part], np.float64)
+                rows, lo, hi = spheres.flatten_run(centers, radii, m, lin, s)
+                tree.add_block(SPHERE, self.material(part[0].material), rows, lo, hi)
+                start = k
+
     def fill(self, group: GroupNode, tree: _Tree) -> None:
+        run: list[ShapeNode] = []  # plain spheres not yet added
         for member in group.members:
+            if self.plain_sphere(member):
+                run.append(member)
+                continue
+            if run:
+                self.sphere_run(tree, run)
+                run = []
             if isinstance(member, InstanceNode):
                 continue
             if not self.add_shape(tree, member, member.transform):
@@ -162,6 +219,8 @@ class _Walk:
                 self.add_shape(own, member, affine.IDENTITY)
                 self.own_instance[id(member)] = len(self.trees)
                 self.trees.append(own)
+        if run:
+            self.sphere_run(tree, run)
 
 
 class _MeshTables:
@@ -232,11 +291,11 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         n_prims = len(tree)
         bvh = None
         if n_prims:
-            bvh = build_tree(np.array(tree.lo, np.float64).reshape(-1, 3), np.array(tree.hi, np.float64).reshape(-1, 3))
+            kind, material, rows, lo, hi = tree.arrays()
+            bvh = build_tree(lo, hi)
             # The tree's rows in leaf order.
-            ints = np.stack([np.array(tree.kind, np.int32), np.array(tree.material, np.int32)], axis=1)
-            prim_i.append(ints[bvh.order])
-            prim_f.append(np.array(tree.rows, np.float64).reshape(-1, PRIM_WIDTH)[bvh.order])
+            prim_i.append(np.stack([kind, material], axis=1)[bvh.order])
+            prim_f.append(rows[bvh.order])
         tri_base = mesh.triangles
         if tree.meshes:
             lo = np.concatenate([rows.lo for rows, _ in tree.meshes])
@@ -333,9 +392,10 @@ def with_width(graph: SceneGraph, width: int) -> SceneGraph:
 def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
     """Flatten `graph` into the arrays the kernels read. Without `use_bvh` every tree is a single
     leaf, so each ray tests every primitive: the brute-force reference the BVH must agree with."""
-    walk = _Walk(graph)
-    walk.place(graph.root, affine.IDENTITY)
-    return _assemble(walk, use_bvh)
+    with paused_gc():
+        walk = _Walk(graph)
+        walk.place(graph.root, affine.IDENTITY)
+        return _assemble(walk, use_bvh)
 
 
 def camera_values(graph: SceneGraph) -> list[float]:

@@ -22,5 +22,7 @@ DIELECTRICS = True  # refraction
 SKY = True  # the sky-gradient background
 LIGHTS = True  # light sampling: shadow rays to points on emitters, weighted with the path's own hits
 ENVIRONMENT = True  # an image background: its lookup, and with `integrator: mis` its sampling as a light
+MESHES = True  # triangle meshes: the ray's sheared frame and the watertight triangle test
 
-NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS", "ENVIRONMENT")
+NAMES = ("MOTION", "DEFOCUS", "MEDIA", "INSTANCES", "CHECKER", "IMAGE", "NOISE", "EMITTERS", "DIELECTRICS", "SKY", "LIGHTS", "ENVIRONMENT",
+         "MESHES")

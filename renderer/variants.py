@@ -55,6 +55,7 @@ class KernelFeatures:
     sky: bool = True
     lights: bool = True
     environment: bool = True
+    meshes: bool = True
 
     @property
     def is_general(self) -> bool:

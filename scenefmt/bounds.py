@@ -19,6 +19,7 @@ the value that causes it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from dataclasses import dataclass, field
@@ -140,6 +141,8 @@ def transform_problem(m: Affine) -> Optional[str]:
 
 def check_transform(steps, path: tuple, report: Callable[[tuple, str], None]) -> None:
     """Report at the first step after which the product of `steps` is unusable."""
+    if not steps:
+        return  # the identity
     m: Affine = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
     for i, step in enumerate(steps):
         m = compose(step_matrix(step), m)
@@ -166,7 +169,8 @@ def shape_extent_and_size(model, mesh=None) -> tuple[float, float]:
     if kind == "mesh":
         return _mesh_extent_and_size(mesh)
     if kind == "sphere":
-        return _sup(model.center) + model.radius, model.radius
+        x, y, z = model.center  # floats: _sup inlined, for the millions a generated scene holds
+        return max(abs(x), abs(y), abs(z)) + model.radius, model.radius
     if kind == "moving_sphere":
         return max(_sup(model.center0), _sup(model.center1)) + model.radius, model.radius
     if kind == "disk":
@@ -262,8 +266,11 @@ class SceneBounds:
         self.facts[key] = facts  # cycles are refused before this walk; this guards it anyway
         self.groups_seen[key] = group
         has_own = False
+        stretches: dict = {}  # a group's many shapes share a few transforms
         for member in group.members:
-            stretch = Stretch.of(member.transform)
+            stretch = stretches.get(member.transform)
+            if stretch is None:
+                stretch = stretches[member.transform] = Stretch.of(member.transform)
             if member.kind == "instance":
                 inner = self.group(member.group)
                 extent, size = inner.extent, inner.size
@@ -424,7 +431,13 @@ def check_memory(graph, document=None) -> MemoryEstimate:
             return document.diagnostic(path, message)
         return Diagnostic(graph.source or "<scene>", 0, 0, tuple(path), message)
 
-    estimate = estimate_memory(graph)
+    if graph.memory is not None:
+        # Only the film changes after loading: the rest was estimated with the graph, and walking
+        # a million shapes again took seconds.
+        estimate = dataclasses.replace(graph.memory, parts=dict(graph.memory.parts))
+        estimate.film = graph.image.width * graph.image.pixel_height * FILM_BYTES_PER_PIXEL
+    else:
+        estimate = estimate_memory(graph)
     problems = memory_problems(estimate, diagnostic)
     if problems:
         raise SceneError(problems)

@@ -29,6 +29,7 @@ EFFECTS = (
     ("sky", "sky background"),
     ("lights", "light sampling"),
     ("environment", "environment map"),
+    ("meshes", "triangle meshes"),
 )
 EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
@@ -97,12 +98,17 @@ def _first(items, text) -> str:
     return text(items[0]) + (f" and {len(items) - 1} more" if len(items) > 1 else "")
 
 
-def _needs_instance(member: Union[ShapeNode, InstanceNode]) -> Union[str, None]:
-    """Why a member keeps a transform of its own in the kernels (None if it is baked in)."""
+def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Union[str, None]:
+    """Why a member keeps a transform of its own in the kernels (None if it is baked in).
+    `similar` remembers which transforms are similarities: a scene's many shapes share a few."""
     if isinstance(member, InstanceNode):
         return "is an instance"
-    if member.kind in ("sphere", "moving_sphere") and affine.similarity_scale(affine.linear(member.transform)) is None:
-        return "is a sphere under a non-uniform scale or shear"
+    if member.kind in ("sphere", "moving_sphere"):
+        known = similar.get(member.transform)
+        if known is None:
+            known = similar[member.transform] = affine.similarity_scale(affine.linear(member.transform)) is not None
+        if not known:
+            return "is a sphere under a non-uniform scale or shear"
     return None
 
 
@@ -113,11 +119,14 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     placed: list[tuple[Union[ShapeNode, InstanceNode], str]] = []
     emitters: list = []
     dielectrics: list = []
+    with_meshes: list[ShapeNode] = []
     textures_by_kind: dict[str, list[ShapeNode]] = {}
+    similar: dict = {}  # transform -> whether it is a similarity
+    kinds_of: dict = {}  # (material, medium) -> the kinds of texture they read, but solid
     for member, inside in _members(graph.root, set()):
         counts = summary.instanced_shape_counts if inside else summary.shape_counts
         counts[member.kind] = counts.get(member.kind, 0) + 1
-        why = _needs_instance(member)
+        why = _needs_instance(member, similar)
         if why is not None:
             placed.append((member, why))
         if isinstance(member, ShapeNode):
@@ -125,17 +134,21 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 moving.append(member)
             if member.interior is not None:
                 with_media.append(member)
+            if member.kind == "mesh":
+                with_meshes.append(member)
             if member.material is not None and member.material.kind == "diffuse_light":
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)
-            textures = list(member.material.textures.values()) if member.material is not None else []
-            if member.interior is not None:
-                textures.append(member.interior.albedo)
-            for root in textures:
-                for tex in _texture_tree(root):
-                    if tex.kind != "solid":
-                        textures_by_kind.setdefault(tex.kind, []).append(member)
+            key = (id(member.material), id(member.interior))
+            kinds = kinds_of.get(key)
+            if kinds is None:
+                textures = list(member.material.textures.values()) if member.material is not None else []
+                if member.interior is not None:
+                    textures.append(member.interior.albedo)
+                kinds = kinds_of[key] = [tex.kind for root in textures for tex in _texture_tree(root) if tex.kind != "solid"]
+            for kind in kinds:
+                textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
     cam = graph.camera
     found: dict[str, Effect] = {}
@@ -165,6 +178,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
+    if with_meshes:
+        found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

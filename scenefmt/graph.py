@@ -375,8 +375,10 @@ class _Resolver:
         return node
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
-        bounds.check_transform(model.transform, path, self.error)
-        transform = affine.from_steps(model.transform)
+        transform = affine.IDENTITY
+        if model.transform:
+            bounds.check_transform(model.transform, path, self.error)
+            transform = affine.from_steps(model.transform)
         if isinstance(model, Instance):
             group = self.group_slot(model.group, path + ("group",))
             return InstanceNode(group, path, transform) if group is not None else None

@@ -17,9 +17,10 @@ from .diagnostics import Diagnostic, SceneError
 from .errors import data_path, diagnostics_from
 from .graph import SceneGraph, build_graph, graph_problems
 from .includes import resolve_includes
-from .loading import SourceDocument, parse_file, parse_stream, parse_text
+from .loading import SourceDocument, parse_file, parse_stream, parse_text, paused_gc
 from .overrides import apply_overrides
 from .scene import Scene
+from .shapes import plain_spheres
 
 _SECTIONS = ("textures", "materials", "media", "groups")
 
@@ -74,10 +75,33 @@ def _partial_problems(doc: SourceDocument, exc: ValidationError) -> list[Diagnos
     return graph_problems(partial, doc, broken, shape_paths)
 
 
+def _with_plain_spheres(data: Any) -> Any:
+    """`data` with the plain spheres of its shape lists already validated (shapes.plain_spheres);
+    `data` itself is left as parsed, for the diagnostics."""
+    if not isinstance(data, dict):
+        return data
+    out = data
+    shapes = data.get("shapes")
+    fast = plain_spheres(shapes)
+    if fast is not shapes:
+        out = {**data, "shapes": fast}
+    groups = data.get("groups")
+    if isinstance(groups, dict):
+        changed = dict(groups)
+        for name, group in groups.items():
+            if isinstance(group, dict) and "shapes" in group:
+                fast = plain_spheres(group["shapes"])
+                if fast is not group["shapes"]:
+                    changed[name] = {**group, "shapes": fast}
+        if any(changed[name] is not groups[name] for name in groups):
+            out = {**out, "groups": changed}
+    return out
+
+
 def check_document(doc: SourceDocument) -> LoadedScene:
     """Validate parsed data as a scene and resolve its graph; raises `SceneError` with every problem."""
     try:
-        scene = Scene.model_validate(doc.data)
+        scene = Scene.model_validate(_with_plain_spheres(doc.data))
     except ValidationError as exc:
         problems = doc.problems + list(diagnostics_from(exc, doc, Scene))
         problems += _partial_problems(doc, exc)
@@ -100,18 +124,21 @@ def compose(doc: SourceDocument, overrides: Iterable[str] = ()) -> SourceDocumen
 def load(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
     """Load, validate and resolve a scene file (YAML or JSON), with its includes and `--set`
     overrides; raises `SceneError`."""
-    return check_document(compose(parse_file(path, syntax), overrides))
+    with paused_gc():
+        return check_document(compose(parse_file(path, syntax), overrides))
 
 
 def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = ()) -> LoadedScene:
     """Like `load`, from text (includes are relative to `base_dir`, by default the current folder)."""
-    return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
+    with paused_gc():
+        return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
 
 
 def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
     """Like `load`, from a binary stream (standard input), bounded as a file is; relative paths in it
     (includes, image textures) resolve from the current folder."""
-    return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
+    with paused_gc():
+        return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
 
 
 def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:

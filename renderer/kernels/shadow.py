@@ -11,11 +11,11 @@ import math
 
 from numba import njit
 
-from ..kernel_flags import INSTANCES, MEDIA
+from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
-from ..shapes.meshes import hit_mesh_triangle, ray_shear
+from ..shapes.meshes import NO_SHEAR, hit_mesh_triangle, ray_shear
 from .simd import slab4
 from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT,
                        TLAS_NEXT, at, inverse_direction, slab)
@@ -39,7 +39,9 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
     _, stack_i, _ = stack
     inv = inverse_direction(d)
     inv_a = 1.0 / dot(d, d)
-    shear = ray_shear(d)
+    shear = NO_SHEAR
+    if MESHES:
+        shear = ray_shear(d)
     first_triangle = prims_f.shape[0]
     depth = 0.0
     stack_i[0, 0], stack_i[0, 1] = root, 0
@@ -63,7 +65,7 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                 t0, t1 = max(enter, 0.0), min(leave, tmax)
                 if t0 < t1:
                     depth += (t1 - t0) * length(d) / -prims_f[prim, MEDIUM_NEG_INV_DENSITY]
-            elif kind == MESH_TRIANGLE:
+            elif MESHES and kind == MESH_TRIANGLE:
                 if hit_mesh_triangle(tri_i, verts_f, at(prim - first_triangle), o, shear, 0.0, tmax) < INF:
                     return INF
             elif hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, 0.0, tmax, time) < INF:

@@ -13,11 +13,11 @@ import numpy as np
 from numba import njit, uint64
 
 from ..columns import Column, Layout
-from ..kernel_flags import INSTANCES, MEDIA
+from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import medium_hit
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
-from ..shapes.meshes import hit_mesh_triangle, ray_shear
+from ..shapes.meshes import NO_SHEAR, hit_mesh_triangle, ray_shear
 from .simd import slab4
 from .vec import dot, xform_point, xform_vector
 
@@ -152,7 +152,9 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, vert
     n_deferred = 0
     inv = inverse_direction(d)
     inv_a = 1.0 / dot(d, d)
-    shear = ray_shear(d)
+    shear = NO_SHEAR
+    if MESHES:
+        shear = ray_shear(d)
     first_triangle = prims_f.shape[0]
     best_t, best_prim = tmax, -1
     sp = 0
@@ -195,7 +197,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, vert
                             n_deferred += 1
                             continue
                         t = medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, best_t, time, key, bounce, inst)
-                    elif kind == MESH_TRIANGLE:
+                    elif MESHES and kind == MESH_TRIANGLE:
                         t = hit_mesh_triangle(tri_i, verts_f, at(prim - first_triangle), o, shear, tmin, best_t)
                     else:
                         t = hit_primitive(kind, prims_f, at(prim), o, d, inv, inv_a, tmin, best_t, time)

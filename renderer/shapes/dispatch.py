@@ -5,6 +5,7 @@ from numba import njit
 from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
+from ..kernel_flags import MESHES
 from ..kernels.vec import dot, madd, max_abs
 from . import BOX, MESH_TRIANGLE, MOVING_SPHERE, SPHERE, boxes, planar, spheres
 from .boxes import box_surface, hit_box
@@ -57,7 +58,7 @@ def surface(kind, S, i, o, d, t, time, want_uv):
     (u, v) is (0, 0) unless `want_uv`: only image textures read it, and on a sphere it costs
     an arc cosine and an arc tangent.
     """
-    if kind == MESH_TRIANGLE:
+    if MESHES and kind == MESH_TRIANGLE:
         return mesh_surface(S.tri_i, S.mesh_i, S.verts_f, S.verts_n, S.verts_uv, i - S.prims_f.shape[0], o, d, want_uv)
     data = S.prims_f
     p = madd(o, d, t)

@@ -95,6 +95,10 @@ def flatten(mesh, m, smooth: bool) -> MeshRows:
 # --- the kernels ------------------------------------------------------------------------------
 
 
+# The frame a kernel compiled without meshes carries in its place (never read).
+NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
+
+
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def ray_shear(d):
     """The ray's frame for the watertight test: axes (kx, ky, kz), kz where |d| is largest and

@@ -52,7 +52,7 @@ shapes:
   its own line and column, with the place that included it:
   `parts/room.yaml:4:60: error: shapes[1].material: undefined material 'glas'; did you mean
   'glass'? (included from scene.yaml:2:28)`. Includes nest at most 16 deep, at most 256 files
-  and 64 MiB in all.
+  and 128 MiB in all.
 - **Changing a value from the command line.** `rt render` and `rt validate` take
   `--set KEY.PATH=VALUE` (repeatable): `--set image.samples_per_pixel=64 --set
   materials.glass.ior=1.33 --set 'shapes[2].center=[0, 1, 0]'`. `VALUE` is read as YAML and

@@ -47,6 +47,7 @@ SWITCH_ON = {
                     "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: glass}\n"),
     "sky": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
     "environment": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
+    "meshes": ("", "  - {type: mesh, vertices: [[-0.5, 0, 0], [0.5, 0, 0], [0, 1, 0]], faces: [[0, 1, 2]], material: white}\n"),
 }
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]

@@ -168,3 +168,48 @@ def test_syntax_follows_the_suffix_or_the_first_character(tmp_path):
 def test_empty_file_is_an_empty_mapping():
     assert parse_text("").data == {}
     assert parse_text("# only a comment\n").data == {}
+
+
+# Large JSON files are read by Python's C parser and their positions found only when a diagnostic
+# asks (loading.parse_json). With the threshold at 0, every document below takes that way.
+FAST_CASES = [
+    '{"a": [1, 2.5, -0.0, 1e-3, true, false, null], "b": {"c": "x,y]}[", "d": []}, "e": {}}',
+    '{"shapes": [\n{"type": "sphere", "center": [0, 1, 2], "radius": 0.5, "material": "m"},\n'
+    '{"type": "sphere", "center": [3, 4, 5], "radius": 1, "material": "m"}]}',
+    '  [1, {"k": "\\u00e9"}]  ',
+    '{"a": 1, "a": 2}',  # duplicate key: reported by the positional parser
+    '{"a": NaN}', '{"a": 1e999}', '{"a": [1, 2,]}', '{"a": 1} x', "", '{"a": "' + "9" * 500 + '"}',
+    '{"a": ' + "1" * 450 + '}', "[" * 70 + "]" * 70, "[" * 63 + "]" * 63,
+]
+
+
+def _outcome(text):
+    try:
+        doc = parse_text(text, syntax="json")
+    except SceneError as exc:
+        return "error", [str(d) for d in exc.diagnostics]
+    return doc.data, dict(doc.values), dict(doc.keys), [str(d) for d in doc.problems]
+
+
+@pytest.mark.parametrize("text", FAST_CASES)
+def test_the_fast_json_path_reads_what_the_positional_parser_reads(text, monkeypatch):
+    slow = _outcome(text)
+    monkeypatch.setattr(loading, "FAST_JSON_BYTES", 0)
+    fast = _outcome(text)
+    assert repr(fast) == repr(slow)
+
+
+def test_the_fast_json_path_finds_positions_only_when_asked(monkeypatch):
+    monkeypatch.setattr(loading, "FAST_JSON_BYTES", 0)
+    doc = parse_text('{"shapes": [\n  {"radius": -1}\n]}', syntax="json")
+    assert doc._place is not None
+    assert doc.position(("shapes", 0, "radius")) == (2, 14)
+    assert doc._place is None
+
+
+def test_the_fast_json_path_bounds_values_and_depth(monkeypatch):
+    monkeypatch.setattr(loading, "FAST_JSON_BYTES", 0)
+    monkeypatch.setattr(loading, "MAX_NODES", 50)
+    with pytest.raises(SceneError) as excinfo:
+        parse_text("[" + ",".join(["1"] * 100) + "]", syntax="json")
+    assert "more than 50 values" in only_error(excinfo).message

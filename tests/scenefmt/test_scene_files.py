@@ -66,6 +66,10 @@ EXPECTED = {
         {"quad": 6, "box": 2}, (600, 600), 200, 50,
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    "cornell_knot.yaml": (
+        {"quad": 6, "mesh": 1}, (600, 600), 200, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
     "final_scene.yaml": (
         {"box": 400, "quad": 1, "moving_sphere": 1, "sphere": 6, "instance": 1}, (400, 400), 250, 4,
         dict(look_from=(478, 278, -600), look_at=(278, 278, 0), vfov=40), BLACK,
@@ -361,6 +365,17 @@ def test_final_scene_contents():
 
 
 # --- the generator ---------------------------------------------------------------------------------
+
+
+def test_the_torus_knot_is_the_one_meshgen_makes(tmp_path):
+    """scenes/torus_knot.ply is made by the project, not downloaded: the same numpy call writes it again."""
+    from scenefmt import meshgen
+
+    made = meshgen.write_ply(tmp_path / "knot.ply", *meshgen.torus_knot(2, 3, 256, 16, 1.0, 0.25))
+    assert made.read_bytes() == (SCENES / "torus_knot.ply").read_bytes()
+    mesh = loaded("cornell_knot.yaml").graph.root.members[-1]
+    assert mesh.kind == "mesh" and len(mesh.mesh.faces) == 8192 and mesh.model.smooth
+    assert scene("cornell_knot.yaml").materials["glass"].type == "dielectric"
 
 
 def test_generated_files_are_up_to_date():

@@ -175,6 +175,33 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     return r, g, b, rays
 
 
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row, col,
+                      stack, tstack):
+    """Add the samples sample_start.. of pixel (i, j) into total[row, col] and total_sq[row, col]
+    (the film's own pixel, or a tile's); the rays cast and the samples left out as not finite.
+    Each pixel's sums grow in sample order wherever they are kept, so a tile of the image adds
+    up to the same bits as the whole image."""
+    pixel = j * width + i
+    rays = 0
+    bad = 0
+    for s in range(sample_start, sample_start + sample_count):
+        key = path_key(seed, pixel, s)
+        o, d, time = camera_ray(S.camera, i, j, key)
+        r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
+        rays += n
+        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+            bad += 1  # counted and reported, never added to the image
+            continue
+        total[row, col, 0] += r
+        total[row, col, 1] += g
+        total[row, col, 2] += b
+        total_sq[row, col, 0] += r * r
+        total_sq[row, col, 1] += g * g
+        total_sq[row, col, 2] += b * b
+    return rays, bad
+
+
 @njit(cache=True, error_model="numpy")
 def row_stride(height):
     """A step through the rows, coprime with their number, near the golden ratio of it.
@@ -203,20 +230,9 @@ def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, i
         rays = 0
         bad = 0
         for i in range(width):
-            pixel = j * width + i
-            for s in range(sample_start, sample_start + sample_count):
-                key = path_key(seed, pixel, s)
-                o, d, time = camera_ray(S.camera, i, j, key)
-                r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
-                rays += n
-                if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
-                    bad += 1  # counted and reported, never added to the image
-                    continue
-                total[j, i, 0] += r
-                total[j, i, 1] += g
-                total[j, i, 2] += b
-                total_sq[j, i, 0] += r * r
-                total_sq[j, i, 1] += g * g
-                total_sq[j, i, 2] += b * b
+            n, nbad = add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator,
+                                        total, total_sq, j, i, stack, tstack)
+            rays += n
+            bad += nbad
         row_rays[j] += rays
         row_bad[j] += bad

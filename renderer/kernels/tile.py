@@ -4,21 +4,17 @@
 them to the whole image: the same camera ray and path for each (pixel, sample), and each
 pixel's sums continued in ascending sample order from the sums it is given. So a tile continued
 round after round holds, bit for bit, the sums of the same pixels of a local render, however
-the samples were split into rounds (see renderer/distributed.py).
+the samples were split into rounds (`integrator.add_pixel_samples` is the loop both share).
 
 It runs on one thread and releases the GIL: a Dask worker with several threads runs several
 tiles at once, and no Numba threading layer is started inside a worker.
 """
 
-import math
-
 import numpy as np
 from numba import njit
 
-from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from .integrator import trace
-from .rng import path_key
+from .integrator import add_pixel_samples
 
 
 @njit(nogil=True, cache=True, error_model="numpy")
@@ -34,21 +30,9 @@ def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, i
         rays = 0
         bad = 0
         for t in range(tile_w):
-            i = x0 + t
-            pixel = j * width + i
-            for s in range(sample_start, sample_start + sample_count):
-                key = path_key(seed, pixel, s)
-                o, d, time = camera_ray(S.camera, i, j, key)
-                r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
-                rays += n
-                if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
-                    bad += 1  # counted and reported, never added to the image
-                    continue
-                total[k, t, 0] += r
-                total[k, t, 1] += g
-                total[k, t, 2] += b
-                total_sq[k, t, 0] += r * r
-                total_sq[k, t, 1] += g * g
-                total_sq[k, t, 2] += b * b
+            n, nbad = add_pixel_samples(S, x0 + t, j, width, seed, sample_start, sample_count, max_depth, integrator,
+                                        total, total_sq, k, t, stack, tstack)
+            rays += n
+            bad += nbad
         row_rays[k] += rays
         row_bad[k] += bad

@@ -323,7 +323,7 @@ def state_case(rng: random.Random, work: Path):
     import numpy as np
 
     from renderer.film import Film
-    from renderer.state import RenderKey, save_state
+    from renderer.state import STATE_VERSION, RenderKey, save_state
 
     key = RenderKey("ab" * 32, 4, 4, 3, 1)
     film = Film(np.full((4, 4, 3), 0.5), np.full((4, 4, 3), 0.3), 2)
@@ -342,17 +342,17 @@ def state_case(rng: random.Random, work: Path):
         raw = bytes(raw)
     else:
         arrays = {"total": film.total, "total_sq": film.total_sq,
-                  "meta": np.array(json.dumps({"version": 1, **key.__dict__, "samples": 2}))}
+                  "meta": np.array(json.dumps({"version": STATE_VERSION, **key.__dict__, "samples": 2}))}
         name = rng.choice(["total", "total_sq", "meta"])
         if kind == 2:
             arrays[name] = rng.choice([np.zeros((4, 5, 3)), np.zeros(48), np.zeros((4, 4, 3), np.float32), np.zeros((4, 4, 3), np.int8),
                                        np.full((4, 4, 3), np.nan), np.full((4, 4, 3), -1.0), np.full((4, 4, 3), 1e308), np.array(5), np.zeros((0,))])
         elif kind == 3:
-            meta = {"version": 1, **key.__dict__, "samples": 2}
+            meta = {"version": STATE_VERSION, **key.__dict__, "samples": 2}
             meta[rng.choice(list(meta))] = rng.choice([-1, 0, 10**18, 2**64, "x", None, True, 1.5, [1]])
             arrays["meta"] = np.array(json.dumps(meta))
         elif kind == 4:
-            arrays["meta"] = np.array(rng.choice(["[]", "{", "5", "null", json.dumps({"version": 1}), "\x1b[2J"]))
+            arrays["meta"] = np.array(rng.choice(["[]", "{", "5", "null", json.dumps({"version": STATE_VERSION}), json.dumps({"version": 1}), "\x1b[2J"]))
         elif kind == 5:
             arrays["total"] = np.zeros((2000, 2000, 3))  # a compressed bomb
         else:

@@ -36,6 +36,7 @@ from numba import njit
 
 from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
 from .columns import Column, Layout
+from .kernels.cdf import search_cdf
 
 ENV_ROW_F = Layout("env_row_f", "float64", [
     Column("cdf", 1, "probability of choosing this row or one above it (the last row is 1)"),
@@ -169,19 +170,6 @@ def environment_radiance(bg, env_rgb, env_texel_f, d):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def _search(table, column, first, count, u):
-    """The first of rows first..first + count - 1 whose `column` (a cdf) exceeds u."""
-    lo, hi = first, first + count - 1
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if u < table[mid, column]:
-            hi = mid
-        else:
-            lo = mid + 1
-    return lo
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def sample_environment(bg, env_rgb, env_row_f, env_texel_f, u1, u2):
     """A direction drawn from the map by brightness: (ok, unit direction, solid angle density
     without the choice of the map, radiance). Not ok for a draw exactly at a pole."""
@@ -189,11 +177,11 @@ def sample_environment(bg, env_rgb, env_row_f, env_texel_f, u1, u2):
     w, h = int(bg[ENV_WIDTH]), int(bg[ENV_HEIGHT])
     # The row from the marginal cdf, then the texel from its row's conditional cdf; the place
     # of u within the chosen interval is reused as the position inside the texel.
-    row = _search(env_row_f, ENV_ROW_CDF, 0, h, u1)
+    row = search_cdf(env_row_f, ENV_ROW_CDF, 0, h, u1)
     pmf = env_row_f[row, ENV_ROW_PMF]
     below = env_row_f[row - 1, ENV_ROW_CDF] if row > 0 else 0.0
     fv = min(max((u1 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5
-    k = _search(env_texel_f, ENV_TEXEL_CDF, row * w, w, u2)
+    k = search_cdf(env_texel_f, ENV_TEXEL_CDF, row * w, w, u2)
     pmf = env_texel_f[k, ENV_TEXEL_PMF]
     below = env_texel_f[k - 1, ENV_TEXEL_CDF] if k > row * w else 0.0
     fu = min(max((u2 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from .columns import Column, Layout
+from .kernels.cdf import search_cdf
 from .kernels.rng import light_dim, uniform
 from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 from .kernels.vec import cross, dot, madd, neg, scale, sub, unit, xform_normal, xform_point
@@ -379,19 +380,6 @@ def emission(S, prim, x_tree, n_tree, x_world, time):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def choose_light(light_f, u):
-    """The light whose cdf interval holds u (binary search; lights of zero power are never chosen)."""
-    lo, hi = 0, light_f.shape[0] - 1
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if u < light_f[mid, LIGHT_CDF]:
-            hi = mid
-        else:
-            lo = mid + 1
-    return lo
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def sample_light(S, p, time, key, bounce):
     """A point on a light for shading point p (world): (ok, point, unit direction from p, distance,
     solid angle density including the choice of light, emitted radiance). Not ok when the light
@@ -404,7 +392,7 @@ def sample_light(S, p, time, key, bounce):
 def sample_light_with(S, p, time, u0, u1, u2):
     """`sample_light` with its three random numbers given: u0 chooses the light, u1 and u2 the point."""
     zero = (0.0, 0.0, 0.0)
-    light = choose_light(S.light_f, u0)
+    light = search_cdf(S.light_f, LIGHT_CDF, 0, S.light_f.shape[0], u0)
     inst = S.light_i[light, LIGHT_INSTANCE]
     prim = S.light_i[light, LIGHT_PRIMITIVE]
     kind = S.prims_i[prim, PRIM_KIND]

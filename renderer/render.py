@@ -16,7 +16,6 @@ import numpy as np
 from .film import Film, relative_noise
 from .flat import FlatScene, Frame
 from .jit_cache import configure as kernel_cache_folder
-from .kernels.integrator import INTEGRATORS
 from .variants import GENERAL, KernelFeatures, features_of, first_kernel, is_compiled, kernels_for, mark_compiled, worth_specialising
 
 if TYPE_CHECKING:
@@ -65,6 +64,24 @@ def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) ->
     return render_flat(flat, Frame.of(graph), needed=features_of(graph), **options)
 
 
+def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
+                    noise_target: Optional[float], last_noise: float) -> tuple[bool, float]:
+    """After samples were added to `film`: refresh the noise estimate where it is needed, show
+    progress, and say whether the noise target is reached; also the time of the last estimate.
+
+    The estimate costs a pass over the film: it is made for a noise target, else for the
+    progress display at most once a second. It needs a few samples before it is trusted to stop on.
+    """
+    now = time.perf_counter()
+    if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
+        stats.noise = relative_noise(film)
+        last_noise = now
+    if progress is not None:
+        progress(stats)
+    reached = noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target
+    return reached, last_noise
+
+
 def render_flat(
     flat: FlatScene,
     frame: Frame,
@@ -103,7 +120,7 @@ def render_flat(
     target = samples if samples is not None else frame.samples
     depth = max_depth if max_depth is not None else frame.max_depth
     seed = seed if seed is not None else frame.seed
-    estimator = INTEGRATORS[frame.integrator]
+    estimator = frame.estimator
     stats = RenderStats(target_samples=target)
     if features is not None and not features.covers(needed):
         raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
@@ -156,16 +173,8 @@ def render_flat(
         stats.rays = int(row_rays.sum())
         stats.bad_samples = int(row_bad.sum())
         stats.seconds = time.perf_counter() - render_start
-        # The estimate costs a pass over the film: needed for a noise target, else for the
-        # progress display at most once a second.
-        now = time.perf_counter()
-        if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
-            stats.noise = relative_noise(film)
-            last_noise = now
-        if progress is not None:
-            progress(stats)
-        # The estimate needs a few samples before it can be trusted to stop on.
-        if noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target:
+        reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+        if reached:
             stats.stop_reason = "noise"
             break
         # Size the next pass to take about pass_seconds.

@@ -152,14 +152,13 @@ def render_on_cluster(
     same options and the same result (a RenderResult); the image is the local one bit for bit."""
     distributed = _distributed()
     from renderer.film import Film, relative_noise
-    from renderer.kernels.integrator import INTEGRATORS
-    from renderer.render import MIN_SAMPLES_FOR_NOISE, RenderResult, RenderStats
+    from renderer.render import RenderResult, RenderStats, report_progress
 
     width, height = frame.width, frame.height
     target = samples if samples is not None else frame.samples
     depth = max_depth if max_depth is not None else frame.max_depth
     seed = seed if seed is not None else frame.seed
-    estimator = INTEGRATORS[frame.integrator]
+    estimator = frame.estimator
     stats = RenderStats(target_samples=target, features=features)
     if film is None:
         film = Film.empty(width, height)
@@ -259,13 +258,8 @@ def render_on_cluster(
                 stats.seconds = time.perf_counter() - render_start
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
-                now = time.perf_counter()
-                if noise_target is not None or (progress is not None and now - last_noise >= 1.0):
-                    stats.noise = relative_noise(film)
-                    last_noise = now
-                if progress is not None:
-                    progress(stats)
-                if noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target:
+                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+                if reached:
                     stats.stop_reason = "noise"
                     stop_submitting = True
                     break

@@ -376,7 +376,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:
-    """The graph rendered with another estimator (kernels/integrator.INTEGRATORS)."""
+    """The graph rendered with another estimator (flat.INTEGRATORS)."""
     return dataclasses.replace(graph, image=graph.image.model_copy(update={"integrator": integrator}))
 
 

@@ -61,6 +61,13 @@ class FlatScene(NamedTuple):
     env_texel_f: np.ndarray  # ENV_TEXEL_F, one row per texel
 
 
+# The estimators (`image.integrator` in a scene file, `--integrator` on the command line), as the
+# kernels' render passes take them (kernels/integrator.trace).
+INTEGRATOR_PATH = 0
+INTEGRATOR_MIS = 1
+INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS}
+
+
 class Frame(NamedTuple):
     """The image settings a render reads from a scene."""
 
@@ -69,7 +76,12 @@ class Frame(NamedTuple):
     samples: int
     max_depth: int
     seed: int
-    integrator: str = "mis"  # kernels/integrator.INTEGRATORS
+    integrator: str = "mis"  # a name of INTEGRATORS
+
+    @property
+    def estimator(self) -> int:
+        """The integrator's code, as the render passes take it."""
+        return INTEGRATORS[self.integrator]
 
     @classmethod
     def of(cls, graph: "SceneGraph") -> "Frame":

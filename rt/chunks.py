@@ -244,7 +244,7 @@ class Chunk:
     image_width: int
     seed: int
     max_depth: int
-    integrator: int  # kernels.integrator.INTEGRATORS code
+    integrator: int  # flat.INTEGRATORS code
 
 
 @dataclass

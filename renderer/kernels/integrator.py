@@ -9,6 +9,7 @@ from ..background import BACKGROUND_IMAGE, BG_KIND, background
 from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
+from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import EMITTERS, ENVIRONMENT, IMAGE, INSTANCES, LIGHTS, MEDIA
 from ..lights import light_pdf, sample_light_with
 from ..materials import DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
@@ -20,10 +21,6 @@ from .shadow import transmittance
 from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
 from .vec import dot, madd, neg, sub, unit, xform_normal, xform_point, xform_vector
 
-# The estimators (`image.integrator` in a scene file, `--integrator` on the command line).
-INTEGRATOR_PATH = 0
-INTEGRATOR_MIS = 1
-INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS}
 # Russian roulette starts after this many bounces: the first few carry most of the light.
 ROULETTE_AFTER = 3
 # A shadow ray stops this fraction short of the point on the light, so the light itself (whose
@@ -221,7 +218,7 @@ def row_stride(height):
 @njit(parallel=True, cache=True, error_model="numpy")
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums,
-    with the estimator `integrator` (INTEGRATOR_PATH or INTEGRATOR_MIS)."""
+    with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS)."""
     stride = row_stride(height)
     for k in prange(height):
         j = (k * stride) % height

@@ -27,7 +27,6 @@ from numba import njit
 
 from .columns import Column, Layout
 from .kernels.cdf import search_cdf
-from .kernels.rng import light_dim, uniform
 from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 from .kernels.vec import cross, dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
@@ -380,17 +379,10 @@ def emission(S, prim, x_tree, n_tree, x_world, time):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def sample_light(S, p, time, key, bounce):
+def sample_light(S, p, time, u0, u1, u2):
     """A point on a light for shading point p (world): (ok, point, unit direction from p, distance,
-    solid angle density including the choice of light, emitted radiance). Not ok when the light
-    is met edge-on or at p itself."""
-    return sample_light_with(S, p, time, uniform(key, light_dim(bounce, 0)), uniform(key, light_dim(bounce, 1)),
-                             uniform(key, light_dim(bounce, 2)))
-
-
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def sample_light_with(S, p, time, u0, u1, u2):
-    """`sample_light` with its three random numbers given: u0 chooses the light, u1 and u2 the point."""
+    solid angle density including the choice of light, emitted radiance). u0 chooses the light
+    (by power), u1 and u2 the point on it. Not ok when the light is met edge-on or at p itself."""
     zero = (0.0, 0.0, 0.0)
     light = search_cdf(S.light_f, LIGHT_CDF, 0, S.light_f.shape[0], u0)
     inst = S.light_i[light, LIGHT_INSTANCE]

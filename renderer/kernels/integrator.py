@@ -11,7 +11,7 @@ from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
 from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import EMITTERS, ENVIRONMENT, IMAGE, INSTANCES, LIGHTS, MEDIA
-from ..lights import light_pdf, sample_light_with
+from ..lights import light_pdf, sample_light
 from ..materials import DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
 from ..shapes import MEDIUM, PRIM_KIND, PRIM_MATERIAL
 from ..shapes.dispatch import spawn_origin, surface
@@ -124,7 +124,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                 reach = math.inf
             elif nee:
                 # Toward an area light, u0 rescaled to choose one (exactly u0 when there is no map).
-                ok, x, wi, _, light, le = sample_light_with(S, p, time, (u0 - choose) / (1.0 - choose), u1, u2)
+                ok, x, wi, _, light, le = sample_light(S, p, time, (u0 - choose) / (1.0 - choose), u1, u2)
                 light *= 1.0 - choose
             if kind == LAMBERTIAN:
                 density = dot(wi, n_front) / math.pi  # the cosine lobe's, and the BRDF times the cosine

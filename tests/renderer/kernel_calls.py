@@ -123,7 +123,9 @@ def light_samples(S, p, time, seed, n):
     stack, tstack = _stacks()
     p = (p[0], p[1], p[2])
     for k in range(n):
-        ok, x, wi, dist, pdf, le = sample_light(S, p, time, path_key(seed, k, 0), 0)
+        key = path_key(seed, k, 0)
+        ok, x, wi, dist, pdf, le = sample_light(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
+                                                uniform(key, light_dim(0, 2)))
         out[k, 0] = 1.0 if ok else 0.0
         out[k, 1], out[k, 2], out[k, 3] = wi[0], wi[1], wi[2]
         out[k, 4], out[k, 5] = dist, pdf

@@ -3,13 +3,16 @@
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..shapes import MEDIUM, PRIM_KIND
 from ..shapes.dispatch import surface
 from .traverse import INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT, intersect_brute_force, intersect_scene
 from .vec import unit, xform_normal, xform_point, xform_vector
+
+# Rays per task of `closest_hits`: each task allocates its own traversal stacks once.
+CLOSEST_HITS_CHUNK = 4096
 
 
 @njit(cache=True, error_model="numpy")
@@ -50,3 +53,32 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
             n_out[k, q] = nw[q]
         uv_out[k, 0], uv_out[k, 1] = u, v
     return t_out, prim_out, inst_out, p_out, n_out, uv_out
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def closest_hits(S, origins, dirs, time, tmin):
+    """For each ray, in parallel: distance (inf on a miss), primitive row and instance (-1 on a miss).
+
+    The same search as `probe_rays` without the surface query, so what Embree's intersect
+    answers; benchmarks/embree.py times it. The rays are cut into chunks of
+    CLOSEST_HITS_CHUNK, each with its own stacks, handed out to the threads.
+    """
+    n = origins.shape[0]
+    t_out = np.full(n, np.inf)
+    prim_out = np.full(n, -1, np.int64)
+    inst_out = np.full(n, -1, np.int64)
+    key = np.uint64(12345)
+    n_chunks = (n + CLOSEST_HITS_CHUNK - 1) // CLOSEST_HITS_CHUNK
+    for c in prange(n_chunks):
+        stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
+        tstack = np.empty((BVH_STACK, 2))
+        for k in range(c * CLOSEST_HITS_CHUNK, min(n, (c + 1) * CLOSEST_HITS_CHUNK)):
+            o = (origins[k, 0], origins[k, 1], origins[k, 2])
+            d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+            t, prim, inst = intersect_scene(
+                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+                S.tri_i, S.verts_f, o, d, tmin, math.inf, time, key, 0, stack, tstack,
+            )
+            if prim >= 0:
+                t_out[k], prim_out[k], inst_out[k] = t, prim, inst
+    return t_out, prim_out, inst_out

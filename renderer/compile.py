@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 
 from scenefmt import affine
-from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode
+from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode, SphereRunNode
 from scenefmt.loading import paused_gc
 
 from . import background, camera, environment, lights, materials, media
@@ -56,7 +56,8 @@ class _Tree:
         self.hi.append(hi)
         self.count += 1
 
-    def add_block(self, kind: int, material: int, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+    def add_block(self, kind: int, material, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Add rows made in numpy; `material` is one material row for all, or one for each."""
         self._close_block()
         n = len(rows)
         self.blocks.append((np.full(n, kind, np.int32), np.full(n, material, np.int32), rows, lo, hi))
@@ -202,6 +203,12 @@ class _Walk:
                 tree.add_block(SPHERE, self.material(part[0].material), rows, lo, hi)
                 start = k
 
+    def sphere_run_node(self, tree: _Tree, run: SphereRunNode) -> None:
+        """Add the spheres of a graph's run (no transform of their own), in their order."""
+        material_rows = np.array([self.material(node) for node in run.materials], np.int32)[run.material_index]
+        rows, lo, hi = spheres.flatten_run(run.centers, run.radii, affine.IDENTITY, *self.similarity(affine.IDENTITY))
+        tree.add_block(SPHERE, material_rows, rows, lo, hi)
+
     def fill(self, group: GroupNode, tree: _Tree) -> None:
         run: list[ShapeNode] = []  # plain spheres not yet added
         for member in group.members:
@@ -212,6 +219,9 @@ class _Walk:
                 self.sphere_run(tree, run)
                 run = []
             if isinstance(member, InstanceNode):
+                continue
+            if isinstance(member, SphereRunNode):
+                self.sphere_run_node(tree, member)
                 continue
             if not self.add_shape(tree, member, member.transform):
                 # An ellipsoid: the sphere in its own tree, placed by its transform.

@@ -271,6 +271,7 @@ class SceneBounds:
             stretch = stretches.get(member.transform)
             if stretch is None:
                 stretch = stretches[member.transform] = Stretch.of(member.transform)
+            path = member.path
             if member.kind == "instance":
                 inner = self.group(member.group)
                 extent, size = inner.extent, inner.size
@@ -280,6 +281,12 @@ class SceneBounds:
                 # The outermost instance of the most placements (groups are walked inside out).
                 if inner.placements >= self.biggest_instance[0]:
                     self.biggest_instance = (inner.placements, member.path)
+            elif member.kind == "sphere_run":
+                has_own = True
+                facts.shapes += len(member)
+                facts.lights += _run_lights(member)
+                worst, extent, size = _run_extent_and_size(member)
+                path = member.path_of(worst)  # a problem with the run is reported at this sphere
             else:
                 extent, size = shape_extent_and_size(member.model, member.mesh)
                 has_own = True
@@ -287,11 +294,11 @@ class SceneBounds:
                 if member.material is not None and member.material.kind == "diffuse_light":
                     facts.lights += len(member.mesh.faces) if member.kind == "mesh" and member.mesh is not None else (
                         6 if member.kind == "box" else 1)
-                if member.kind in ("sphere", "moving_sphere") and member.transform != ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0)):
+                if member.kind in ("sphere", "moving_sphere") and member.transform != _IDENTITY:
                     facts.placements += 1  # an ellipsoid gets a tree and a placement of its own
             placed_extent = stretch.most * extent + stretch.shift
             placed_size = stretch.least * size
-            where = member.path + (("transform",) if member.transform != _IDENTITY else ())
+            where = path + (("transform",) if member.transform != _IDENTITY else ())
             if not placed_extent <= MAX_EXTENT:
                 self.report(where, f"placed here, the shape reaches {placed_extent:.3g} from the origin, beyond the {MAX_EXTENT:g} allowed")
                 continue  # reported once, here, not again by every instance around it
@@ -306,6 +313,31 @@ class SceneBounds:
 
 
 _IDENTITY: Affine = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, 0.0))
+
+
+def _run_extent_and_size(run) -> tuple[int, float, float]:
+    """(index of the sphere reaching furthest, or the smallest if one is below MIN_SIZE; the
+    run's extent; its smallest size) of a graph.SphereRunNode, in numpy."""
+    import numpy as np
+
+    reach = np.abs(run.centers).max(axis=1) + run.radii
+    far, small = int(np.argmax(reach)), int(np.argmin(run.radii))
+    size = float(run.radii[small])
+    return (small if not size >= MIN_SIZE else far), float(reach[far]), size
+
+
+def _run_lights(run) -> int:
+    """Emitting spheres of a graph.SphereRunNode."""
+    import numpy as np
+
+    emits = np.array([node.kind == "diffuse_light" for node in run.materials])
+    return int(emits[run.material_index].sum()) if emits.any() else 0
+
+
+def _primitives(member) -> int:
+    """Rows a group member adds to its tree (an instance none, a mesh's triangles are counted apart)."""
+    kind = member.kind
+    return 6 if kind == "box" else len(member) if kind == "sphere_run" else 0 if kind in ("instance", "mesh") else 1
 
 
 def _image_pixels(path) -> int:
@@ -361,7 +393,7 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     est.parts["instances"] = walk.biggest_instance[1]
     primitives = triangles = 0
     for group in walk.groups_seen.values():
-        primitives += sum(6 if m.kind == "box" else 1 for m in group.members if m.kind not in ("instance", "mesh"))
+        primitives += sum(_primitives(m) for m in group.members)
         triangles += sum(len(m.mesh.faces) for m in group.members if m.kind == "mesh" and m.mesh is not None)
     est.primitives = primitives * PRIMITIVE_BYTES + triangles * MESH_TRIANGLE_BYTES
     est.parts["shapes and trees"] = ("shapes",)

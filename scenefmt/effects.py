@@ -1,6 +1,6 @@
 """Which effects a scene calls for, and the scene element that switches each one on.
 
-Computed from the node graph alone (no numpy, no Numba), so `rt validate` can print it and
+Computed from the node graph alone (no Numba; numpy only reads a run of spheres' columns), so `rt validate` can print it and
 the renderer can choose a kernel that simulates nothing the scene does not use.
 """
 
@@ -11,7 +11,7 @@ from typing import Iterator, Union
 
 from . import affine
 from .diagnostics import format_path
-from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, TextureNode
+from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
 from .scene import ImageBackground, SkyBackground
 
 # (key, name): the key is the kernel path's flag (renderer/kernel_flags.py), the name is what
@@ -94,8 +94,17 @@ def _texture_tree(tex: TextureNode) -> Iterator[TextureNode]:
         yield from _texture_tree(child)
 
 
+@dataclass(frozen=True)
+class _RunPart:
+    """The spheres of a run that share one material: where the first is, and how many there are."""
+
+    path: tuple
+    count: int
+
+
 def _first(items, text) -> str:
-    return text(items[0]) + (f" and {len(items) - 1} more" if len(items) > 1 else "")
+    more = sum(item.count if isinstance(item, _RunPart) else 1 for item in items) - 1
+    return text(items[0]) + (f" and {more} more" if more > 0 else "")
 
 
 def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Union[str, None]:
@@ -123,8 +132,31 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     textures_by_kind: dict[str, list[ShapeNode]] = {}
     similar: dict = {}  # transform -> whether it is a similarity
     kinds_of: dict = {}  # (material, medium) -> the kinds of texture they read, but solid
+    def texture_kinds(material, interior) -> list[str]:
+        """The kinds of texture a material and medium read, but solid."""
+        key = (id(material), id(interior))
+        kinds = kinds_of.get(key)
+        if kinds is None:
+            textures = list(material.textures.values()) if material is not None else []
+            if interior is not None:
+                textures.append(interior.albedo)
+            kinds = kinds_of[key] = [tex.kind for root in textures for tex in _texture_tree(root) if tex.kind != "solid"]
+        return kinds
+
     for member, inside in _members(graph.root, set()):
         counts = summary.instanced_shape_counts if inside else summary.shape_counts
+        if isinstance(member, SphereRunNode):
+            counts["sphere"] = counts.get("sphere", 0) + len(member)
+            for j, material in enumerate(member.materials):
+                at = (member.material_index == j).nonzero()[0]
+                part = _RunPart(member.path_of(int(at[0])), len(at))
+                if material.kind == "diffuse_light":
+                    emitters.append(part)
+                if material.kind == "dielectric":
+                    dielectrics.append(part)
+                for kind in texture_kinds(material, None):
+                    textures_by_kind.setdefault(kind, []).append(part)
+            continue
         counts[member.kind] = counts.get(member.kind, 0) + 1
         why = _needs_instance(member, similar)
         if why is not None:
@@ -140,14 +172,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)
-            key = (id(member.material), id(member.interior))
-            kinds = kinds_of.get(key)
-            if kinds is None:
-                textures = list(member.material.textures.values()) if member.material is not None else []
-                if member.interior is not None:
-                    textures.append(member.interior.albedo)
-                kinds = kinds_of[key] = [tex.kind for root in textures for tex in _texture_tree(root) if tex.kind != "solid"]
-            for kind in kinds:
+            for kind in texture_kinds(member.material, member.interior):
                 textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
     cam = graph.camera

@@ -88,6 +88,41 @@ class ShapeNode:
 
 
 @dataclass(eq=False)
+class SphereRunNode:
+    """Consecutive plain spheres of one shape list (each a `sphere` with a named material and no
+    transform or interior of its own), held as columns: a generated scene's million spheres are
+    then a few arrays that the bounds, the summary and the flattening read in numpy, not a million
+    nodes. Sphere k is `models[k]`, written at `path_of(k)`."""
+
+    models: list  # the Sphere models, in the list's order
+    list_path: tuple  # the shape list: ("shapes",) or ("groups", name, "shapes")
+    first: int  # the list index of models[0]
+    materials: list[MaterialNode]  # the distinct materials, in the order first used
+    material_index: "np.ndarray"  # (n,) int32: each sphere's entry in `materials`
+    centers: "np.ndarray"  # (n, 3) float64
+    radii: "np.ndarray"  # (n,) float64
+
+    kind = "sphere_run"
+    transform = affine.IDENTITY
+    interior = None
+
+    def __len__(self) -> int:
+        return len(self.models)
+
+    @property
+    def path(self) -> tuple:
+        return self.path_of(0)
+
+    def path_of(self, k: int) -> tuple:
+        return self.list_path + (self.first + k,)
+
+
+# A run of fewer plain spheres is made of one ShapeNode each: few nodes cost little, and a scene
+# written by hand keeps a node per shape.
+SPHERE_RUN_MIN = 256
+
+
+@dataclass(eq=False)
 class InstanceNode:
     """One placement of a group: `group_from_instance` is the instance's own transform."""
 
@@ -104,7 +139,7 @@ class GroupNode:
 
     name: Optional[str]
     path: tuple
-    members: list[Union[ShapeNode, InstanceNode]] = field(default_factory=list)
+    members: list[Union[ShapeNode, SphereRunNode, InstanceNode]] = field(default_factory=list)
 
 
 @dataclass(eq=False)
@@ -366,13 +401,50 @@ class _Resolver:
         self._group_stack.append(name or f"(inline group at {format_path(path)})")
         try:
             node = GroupNode(name, path)
-            for i, shape in enumerate(model.shapes):
-                member = self.shape(shape, path + ("shapes", i))
-                if member is not None:
-                    node.members.append(member)
+            node.members = self.shape_list(model.shapes, path + ("shapes",))
         finally:
             self._group_stack.pop()
         return node
+
+    def shape_list(self, models: list, list_path: tuple) -> list:
+        """The nodes of a list of shapes: a ShapeNode or InstanceNode each, but a SphereRunNode for
+        every SPHERE_RUN_MIN or more plain spheres in a row."""
+        members: list = []
+        defined = self.scene.materials
+        start = 0
+        for k in range(len(models) + 1):
+            if k < len(models):
+                s = models[k]
+                if (type(s) is Sphere and not s.transform and s.interior is None and type(s.material) is str
+                        and s.material in defined):
+                    continue
+            if k - start >= SPHERE_RUN_MIN:
+                members.append(self.sphere_run(models[start:k], list_path, start))
+            else:
+                for i in range(start, k):
+                    member = self.shape(models[i], list_path + (i,))
+                    if member is not None:
+                        members.append(member)
+            if k < len(models):
+                member = self.shape(models[k], list_path + (k,))
+                if member is not None:
+                    members.append(member)
+            start = k + 1
+        return members
+
+    def sphere_run(self, models: list, list_path: tuple, first: int) -> SphereRunNode:
+        import numpy as np
+
+        slots: dict[str, int] = {}
+        nodes: list[MaterialNode] = []
+        for k, s in enumerate(models):
+            if s.material not in slots:
+                slots[s.material] = len(nodes)
+                nodes.append(self.material_slot(s.material, list_path + (first + k, "material")))
+        index = np.fromiter((slots[s.material] for s in models), np.int32, len(models))
+        centers = np.array([s.center for s in models], np.float64).reshape(-1, 3)
+        radii = np.fromiter((s.radius for s in models), np.float64, len(models))
+        return SphereRunNode(models, list_path, first, nodes, index, centers, radii)
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
         transform = affine.IDENTITY
@@ -437,11 +509,13 @@ class _Resolver:
     def resolve(self) -> SceneGraph:
         scene = self.scene
         root = GroupNode(None, ())
-        for i, shape in enumerate(scene.shapes):
-            path = self.shape_paths[i] if self.shape_paths is not None else ("shapes", i)
-            member = self.shape(shape, path)
-            if member is not None:
-                root.members.append(member)
+        if self.shape_paths is None:
+            root.members = self.shape_list(scene.shapes, ("shapes",))
+        else:  # a partly valid scene, for its errors: its shapes keep their places in the file
+            for shape, path in zip(scene.shapes, self.shape_paths):
+                member = self.shape(shape, path)
+                if member is not None:
+                    root.members.append(member)
         # Definitions nothing reached are still checked (so their errors show), then reported as
         # unused; a group goes first since resolving it marks what it uses.
         warnings = []

@@ -49,3 +49,26 @@ def test_runs_of_spheres_flatten_to_the_tables_of_one_sphere_at_a_time(monkeypat
         other = getattr(one_by_one, name)
         assert table.dtype == other.dtype and table.shape == other.shape, name
         assert table.tobytes() == other.tobytes(), name
+
+
+def test_a_run_of_plain_spheres_in_the_graph_gives_the_tables_summary_and_memory_of_one_node_each(monkeypatch):
+    from scenefmt import graph as graph_module
+    from scenefmt.effects import summarize
+
+    rng = np.random.default_rng(5)
+    many = "".join(f"  - {{type: sphere, center: [{x!r}, {y!r}, {z!r}], radius: {r!r}, material: {'abl'[k % 3]}}}\n"
+                   for k, (x, y, z, r) in enumerate(zip(*rng.uniform(-9, 9, (3, 300)).tolist(), rng.uniform(0.01, 1, 300).tolist())))
+    text = SCENE.replace("materials:\n", "materials:\n  l: {type: diffuse_light, emit: [4, 4, 4]}\n") + many
+    text = text.replace("shapes:\n      -", f"shapes:\n{many.replace('  - ', '      - ')}      -", 1)  # a run in the group too
+    monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 2)
+    runs = loads(text).graph
+    assert sum(m.kind == "sphere_run" for g in [runs.root, *runs.groups] for m in g.members) >= 2
+    monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 10**9)
+    nodes = loads(text).graph
+    assert not any(m.kind == "sphere_run" for g in [nodes.root, *nodes.groups] for m in g.members)
+    for name, table in compile_scene(runs)._asdict().items():
+        other = getattr(compile_scene(nodes), name)
+        assert table.dtype == other.dtype and table.shape == other.shape and table.tobytes() == other.tobytes(), name
+    assert summarize(runs) == summarize(nodes)
+    assert "and 199 more" in summarize(runs).effect("emitters").reason  # 100 emitting spheres in each run
+    assert runs.memory == nodes.memory

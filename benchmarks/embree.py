@@ -112,7 +112,7 @@ def bounce_rays(flat, count: int, rng):
         raise SystemExit(f"only {len(hit)} camera rays hit the knot, {count} wanted")
     chosen = np.sort(rng.choice(hit, count, replace=False))
     _, _, _, p, n, _ = probe_rays(flat, origins[chosen], dirs[chosen], 0.0, 0.0, False)
-    # The side the camera sees (meshgen.torus_knot's faces turn inward, so its normals do too).
+    # The side the camera sees (the knot winds outward; this also holds for rays from inside).
     n *= -np.sign((n * dirs[chosen]).sum(1))[:, None]
     return p + EPSILON * n, cosine_directions(n, rng)
 

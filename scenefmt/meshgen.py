@@ -95,7 +95,9 @@ def torus_knot(p: int = 2, q: int = 3, segments: int = 256, sides: int = 16, rad
     v10 = ((a + 1) % segments) * sides + b
     v01 = a * sides + (b + 1) % sides
     v11 = ((a + 1) % segments) * sides + (b + 1) % sides
-    faces = np.concatenate([np.stack([v00, v10, v11], -1).reshape(-1, 3), np.stack([v00, v11, v01], -1).reshape(-1, 3)])
+    # Wound so that u x v points out of the tube (as every closed mesh here): a glass knot is then
+    # entered from outside.
+    faces = np.concatenate([np.stack([v00, v11, v10], -1).reshape(-1, 3), np.stack([v00, v01, v11], -1).reshape(-1, 3)])
     return vertices, faces.astype(np.int64)
 
 

@@ -119,3 +119,12 @@ def test_the_memory_estimate_counts_mesh_triangles(tmp_path):
     loaded = load_mesh_scene(tmp_path, "file: s.ply")
     from scenefmt.bounds import MESH_TRIANGLE_BYTES
     assert loaded.graph.memory.primitives == len(f) * MESH_TRIANGLE_BYTES
+
+
+@pytest.mark.parametrize("closed", [lambda: meshgen.icosphere(5), lambda: meshgen.torus_knot(2, 3, 64, 8), lambda: meshgen.torus_knot(3, 2, 48, 6)])
+def test_closed_meshes_made_here_wind_outward(closed):
+    # A glass mesh is entered where u x v faces the ray: an inward winding turns it into a bubble.
+    v, f = closed()
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    signed_volume = np.einsum("ij,ij->i", p0, np.cross(p1, p2)).sum() / 6
+    assert signed_volume > 0

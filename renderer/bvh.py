@@ -2,8 +2,9 @@
 
 The tree is built over primitive bounds and stored as arrays: node i's first child is node
 i + 1, its second child is `node_a[i]`; a leaf has `node_n[i] > 0` primitives starting at
-`node_a[i]` in the permutation `order`. The build runs in Numba, so a million primitives build
-in about a second.
+`node_a[i]` in the permutation `order`. The build runs in Numba: the top of the tree on one
+thread, the subtrees below it on every thread, each split decided as one thread decides it, so
+the tree does not depend on the number of threads.
 
 The bottom-level trees are then widened to four children per node (`widen`): a traversal
 step tests four boxes with one vector computation and the tree has about half as many levels,
@@ -13,7 +14,7 @@ which made whole renders 1.3 times as fast (docs/speed.md).
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from renderer import jit_cache  # absolute: see kernels/__init__.py
 from .config import BVH_BINS, BVH_MAX_LEAF
@@ -33,6 +34,9 @@ MESH_TRAVERSAL_COST = 1.0
 # Below this depth splits halve the range by index, so no tree is deeper than about
 # SAH_DEPTH_LIMIT + log2(n) and the traversal stack (config.BVH_STACK) cannot overflow.
 SAH_DEPTH_LIMIT = 32
+# Subtrees the build grows in parallel: enough that threads finish together although SAH splits
+# are uneven, few enough that the part grown on one thread above them stays small.
+BUILD_TASKS = 32
 
 
 class Bvh(NamedTuple):
@@ -111,31 +115,32 @@ def _area(lo, hi):
 
 
 @njit(cache=True, error_model="numpy")
-def _build(lo, hi, bins, max_leaf, traversal_cost):
-    n = lo.shape[0]
-    # Copies of the boxes and their centres, permuted with idx: row k is the box in slot k.
-    lo = lo.copy()
-    hi = hi.copy()
-    cen = 0.5 * (lo + hi)
-    idx = np.arange(n).astype(np.int32)
-    cap = max(1, 2 * n)
-    node_lo = np.empty((cap, 3))
-    node_hi = np.empty((cap, 3))
-    node_a = np.zeros(cap, np.int32)
-    node_n = np.zeros(cap, np.int32)
-    node_axis = np.zeros(cap, np.int32)
+def _grow(lo, hi, cen, idx, start, end, depth, bins, max_leaf, traversal_cost, cutoff,
+          node_lo, node_hi, node_a, node_n, node_axis, base, tasks):
+    """Build the tree over slots start:end (at `depth`) into the node arrays from row `base`, in
+    preorder: a node's first child is the next row, its second child's row is `node_a`. The
+    slots' boxes, centres and `idx` are permuted in place. A range of at most `cutoff` boxes below
+    the root is not built but left as a task: its node gets count -1 - k and row k of `tasks`
+    (start, end, depth). Returns the number of nodes written and of tasks left."""
     # Work stack: (start, end, parent whose second child this is or -1, depth).
     stack = np.empty((128, 4), np.int64)
-    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = 0, n, -1, 0
+    stack[0, 0], stack[0, 1], stack[0, 2], stack[0, 3] = start, end, -1, depth
     sp = 1
     count = 0
+    n_tasks = 0
     while sp > 0:
         sp -= 1
         start, end, parent, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3]
-        node = count
+        node = base + count
         count += 1
         if parent >= 0:
             node_a[parent] = node
+        size = end - start
+        if count > 1 and size <= cutoff:
+            tasks[n_tasks, 0], tasks[n_tasks, 1], tasks[n_tasks, 2] = start, end, depth
+            node_n[node] = -1 - n_tasks
+            n_tasks += 1
+            continue
         for q in range(3):
             node_lo[node, q] = np.inf
             node_hi[node, q] = -np.inf
@@ -143,7 +148,6 @@ def _build(lo, hi, bins, max_leaf, traversal_cost):
             for q in range(3):
                 node_lo[node, q] = min(node_lo[node, q], lo[j, q])
                 node_hi[node, q] = max(node_hi[node, q], hi[j, q])
-        size = end - start
         axis, pos, cost = -1, 0.0, np.inf
         if size > 1 and depth < SAH_DEPTH_LIMIT:
             axis, pos, cost = _sah_split(lo, hi, cen, start, end, bins)
@@ -189,7 +193,80 @@ def _build(lo, hi, bins, max_leaf, traversal_cost):
         sp += 1
         stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3] = start, mid, -1, depth + 1
         sp += 1
-    return node_lo[:count].copy(), node_hi[:count].copy(), node_a[:count].copy(), node_n[:count].copy(), node_axis[:count].copy(), idx
+    return count, n_tasks
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def _build(lo, hi, bins, max_leaf, traversal_cost, tasks_wanted):
+    """The tree over boxes lo, hi, in preorder, and the permutation of the boxes in its leaves.
+
+    The top of the tree is grown on one thread until about `tasks_wanted` ranges are left; those
+    subtrees grow on every thread, each into its own rows, and are then stitched in where their
+    placeholders are. Every split is decided as when one thread grows it all, so the tree is the
+    same, row for row, whatever the number of threads."""
+    n = lo.shape[0]
+    # Copies of the boxes and their centres, permuted with idx: row k is the box in slot k.
+    lo = lo.copy()
+    hi = hi.copy()
+    cen = 0.5 * (lo + hi)
+    idx = np.arange(n).astype(np.int32)
+    cutoff = n // tasks_wanted
+    # Room for a whole tree (a range of k boxes makes at most 2k - 1 nodes): the pages of rows
+    # never written are never touched.
+    top_cap = max(1, 2 * n)
+    top_lo = np.empty((top_cap, 3))
+    top_hi = np.empty((top_cap, 3))
+    top_a = np.zeros(top_cap, np.int32)
+    top_n = np.zeros(top_cap, np.int32)
+    top_axis = np.zeros(top_cap, np.int32)
+    tasks = np.empty((top_cap, 3), np.int64)
+    top_count, n_tasks = _grow(lo, hi, cen, idx, 0, n, 0, bins, max_leaf, traversal_cost, cutoff,
+                               top_lo, top_hi, top_a, top_n, top_axis, 0, tasks)
+    # Each task's rows: a range of k boxes makes at most 2k - 1 nodes.
+    first = np.zeros(n_tasks + 1, np.int64)
+    for t in range(n_tasks):
+        first[t + 1] = first[t] + 2 * (tasks[t, 1] - tasks[t, 0])
+    cap = max(1, first[n_tasks])
+    sub_lo = np.empty((cap, 3))
+    sub_hi = np.empty((cap, 3))
+    sub_a = np.zeros(cap, np.int32)
+    sub_n = np.zeros(cap, np.int32)
+    sub_axis = np.zeros(cap, np.int32)
+    made = np.zeros(n_tasks, np.int64)
+    for t in prange(n_tasks):
+        none = np.empty((1, 3), np.int64)
+        made[t] = _grow(lo, hi, cen, idx, tasks[t, 0], tasks[t, 1], tasks[t, 2], bins, max_leaf, traversal_cost, 0,
+                        sub_lo, sub_hi, sub_a, sub_n, sub_axis, first[t], none)[0]
+    # Stitch in preorder: a top node's row moves up by the rows of the subtrees before it.
+    total = top_count + made.sum() - n_tasks
+    row_of = np.empty(top_count, np.int64)
+    row = 0
+    for i in range(top_count):
+        row_of[i] = row
+        row += made[-1 - top_n[i]] if top_n[i] < 0 else 1
+    node_lo = np.empty((total, 3))
+    node_hi = np.empty((total, 3))
+    node_a = np.empty(total, np.int32)
+    node_n = np.empty(total, np.int32)
+    node_axis = np.empty(total, np.int32)
+    for i in range(top_count):
+        r = row_of[i]
+        if top_n[i] < 0:
+            t = -1 - top_n[i]
+            shift = r - first[t]
+            for k in range(first[t], first[t] + made[t]):
+                node_lo[k + shift] = sub_lo[k]
+                node_hi[k + shift] = sub_hi[k]
+                node_a[k + shift] = sub_a[k] + shift if sub_n[k] == 0 else sub_a[k]
+                node_n[k + shift] = sub_n[k]
+                node_axis[k + shift] = sub_axis[k]
+            continue
+        node_lo[r] = top_lo[i]
+        node_hi[r] = top_hi[i]
+        node_a[r] = row_of[top_a[i]] if top_n[i] == 0 else top_a[i]
+        node_n[r] = top_n[i]
+        node_axis[r] = top_axis[i]
+    return node_lo, node_hi, node_a, node_n, node_axis, idx
 
 
 def single_leaf(lo: np.ndarray, hi: np.ndarray) -> Bvh:
@@ -215,7 +292,7 @@ def build_bvh(lo: np.ndarray, hi: np.ndarray, traversal_cost: float = TRAVERSAL_
     pad = np.maximum(PAD_RELATIVE * scale, 1e-300)
     lo = lo - pad
     hi = hi + pad
-    node_lo, node_hi, a, n, axis, order = _build(lo, hi, BVH_BINS, BVH_MAX_LEAF, float(traversal_cost))
+    node_lo, node_hi, a, n, axis, order = _build(lo, hi, BVH_BINS, BVH_MAX_LEAF, float(traversal_cost), BUILD_TASKS)
     return Bvh(node_lo, node_hi, a, n, axis, order)
 
 

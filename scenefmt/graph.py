@@ -194,8 +194,10 @@ def _image_problem(path: Path) -> Optional[str]:
 
 
 class _Resolver:
-    def __init__(self, scene: Scene, doc: Optional[SourceDocument], broken: dict[str, set], shape_paths: Optional[list]):
+    def __init__(self, scene: Scene, doc: Optional[SourceDocument], broken: dict[str, set], shape_paths: Optional[list],
+                 columns: Optional[dict] = None):
         self.scene = scene
+        self.columns = columns or {}  # list path -> shapes.SphereColumns of its spheres validated in bulk
         self.doc = doc
         self.broken = broken
         self.shape_paths = shape_paths
@@ -409,42 +411,56 @@ class _Resolver:
     def shape_list(self, models: list, list_path: tuple) -> list:
         """The nodes of a list of shapes: a ShapeNode or InstanceNode each, but a SphereRunNode for
         every SPHERE_RUN_MIN or more plain spheres in a row."""
-        members: list = []
-        defined = self.scene.materials
-        start = 0
-        for k in range(len(models) + 1):
-            if k < len(models):
-                s = models[k]
-                if (type(s) is Sphere and not s.transform and s.interior is None and type(s.material) is str
-                        and s.material in defined):
-                    continue
-            if k - start >= SPHERE_RUN_MIN:
-                members.append(self.sphere_run(models[start:k], list_path, start))
-            else:
-                for i in range(start, k):
-                    member = self.shape(models[i], list_path + (i,))
-                    if member is not None:
-                        members.append(member)
-            if k < len(models):
-                member = self.shape(models[k], list_path + (k,))
-                if member is not None:
-                    members.append(member)
-            start = k + 1
-        return members
-
-    def sphere_run(self, models: list, list_path: tuple, first: int) -> SphereRunNode:
         import numpy as np
 
-        slots: dict[str, int] = {}
-        nodes: list[MaterialNode] = []
-        for k, s in enumerate(models):
-            if s.material not in slots:
-                slots[s.material] = len(nodes)
-                nodes.append(self.material_slot(s.material, list_path + (first + k, "material")))
-        index = np.fromiter((slots[s.material] for s in models), np.int32, len(models))
-        centers = np.array([s.center for s in models], np.float64).reshape(-1, 3)
-        radii = np.fromiter((s.radius for s in models), np.float64, len(models))
-        return SphereRunNode(models, list_path, first, nodes, index, centers, radii)
+        columns = self.columns.get(list_path)
+        defined = self.scene.materials
+        if columns is not None:  # validated in bulk: the spheres with a material defined
+            plain = np.zeros(len(models), bool)
+            ok = np.array([name in defined for name in columns.names] + [False])[columns.material_code]
+            plain[columns.index[ok]] = True
+        else:
+            plain = np.fromiter(
+                (type(s) is Sphere and not s.transform and s.interior is None and type(s.material) is str and s.material in defined
+                 for s in models), bool, len(models))
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], plain.view(np.int8), [0]])))
+        runs = [(start, end) for start, end in zip(edges[::2].tolist(), edges[1::2].tolist()) if end - start >= SPHERE_RUN_MIN]
+        members: list = []
+        done = 0
+        for start, end in runs + [(len(models), len(models))]:
+            for i in range(done, start):
+                member = self.shape(models[i], list_path + (i,))
+                if member is not None:
+                    members.append(member)
+            if end > start:
+                members.append(self.sphere_run(models, list_path, start, end, columns))
+            done = end
+        return members
+
+    def sphere_run(self, models: list, list_path: tuple, start: int, end: int, columns) -> SphereRunNode:
+        """The run of plain spheres models[start:end], from the columns they were validated into if given."""
+        import numpy as np
+
+        if columns is not None:
+            first = int(np.searchsorted(columns.index, start))
+            rows = slice(first, first + end - start)
+            centers = np.ascontiguousarray(columns.values[rows, :3])
+            radii = columns.values[rows, 3].copy()
+            code, names = columns.material_code[rows], columns.names
+        else:
+            run = models[start:end]
+            centers = np.array([s.center for s in run], np.float64).reshape(-1, 3)
+            radii = np.fromiter((s.radius for s in run), np.float64, len(run))
+            known: dict[str, int] = {}
+            code = np.fromiter((known.setdefault(s.material, len(known)) for s in run), np.int32, len(run))
+            names = list(known)
+        # The materials in the order first used, as one node a sphere would resolve them.
+        used, at = np.unique(code, return_index=True)
+        order = np.argsort(at, kind="stable")
+        slot = np.zeros(used.max() + 1, np.int32)
+        slot[used[order]] = np.arange(len(used), dtype=np.int32)
+        materials = [self.material_slot(names[used[k]], list_path + (start + int(at[k]), "material")) for k in order]
+        return SphereRunNode(models[start:end], list_path, start, materials, slot[code], centers, radii)
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
         transform = affine.IDENTITY
@@ -588,9 +604,11 @@ def build_graph(
     *,
     broken: Optional[dict[str, set]] = None,
     shape_paths: Optional[list] = None,
+    columns: Optional[dict] = None,
 ) -> SceneGraph:
-    """Resolve `scene` into a `SceneGraph`; raises `SceneError` listing every problem."""
-    resolver = _Resolver(scene, doc, broken or {}, shape_paths)
+    """Resolve `scene` into a `SceneGraph`; raises `SceneError` listing every problem. `columns`
+    holds the spheres `shapes.plain_spheres` validated in bulk, by the path of their list."""
+    resolver = _Resolver(scene, doc, broken or {}, shape_paths, columns)
     graph = resolver.resolve()
     if resolver.errors:
         raise SceneError(resolver.errors)

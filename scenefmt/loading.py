@@ -595,15 +595,15 @@ def _unique_keys(pairs: list) -> dict:
 def _json_tables():
     import numpy as np
 
-    step = np.zeros(256, np.int8)
-    step[[ord("["), ord("{")]] = 1
-    step[[ord("]"), ord("}")]] = -1
-    marks = step != 0
-    marks[ord(",")] = True
-    return marks, step
+    # What a byte is to the depth check: 1 a quote, 2 an opening bracket, 3 a closing one.
+    symbol = np.zeros(256, np.uint8)
+    symbol[ord('"')] = 1
+    symbol[[ord("["), ord("{")]] = 2
+    symbol[[ord("]"), ord("}")]] = 3
+    return symbol
 
 
-_JSON_MARKS = _JSON_STEP = None
+_JSON_SYMBOL = None
 
 
 def _fast_json(text: str) -> Optional[Any]:
@@ -614,23 +614,24 @@ def _fast_json(text: str) -> Optional[Any]:
     the C one is about fifty times faster on a file of a million shapes."""
     import numpy as np
 
-    global _JSON_MARKS, _JSON_STEP
+    global _JSON_SYMBOL
     if "\\" in text:
         return None
-    if _JSON_MARKS is None:
-        _JSON_MARKS, _JSON_STEP = _json_tables()
-    raw = np.frombuffer(text.encode("utf-8"), np.uint8)
-    # Without backslashes every '"' opens or closes a string: a bracket or comma is outside one
-    # when an even number of quotes comes before it.
-    quotes = np.flatnonzero(raw == ord('"'))
-    marks = np.flatnonzero(_JSON_MARKS[raw])
-    outside = marks[(np.searchsorted(quotes, marks) & 1) == 0]
-    step = _JSON_STEP[raw[outside]]
-    openers = int(np.count_nonzero(step > 0))
-    if openers and int(np.cumsum(step, dtype=np.int64).max()) + 1 > MAX_DEPTH:  # the value at the deepest level is one more
+    # Each value is the document, or follows an opener or a comma: at most this many (those in
+    # strings counted too, which only errs on the safe side).
+    if 1 + text.count("[") + text.count("{") + text.count(",") > MAX_NODES:
         return None
-    # Each value is the document, or follows an opener or a comma: at most this many.
-    if 1 + openers + (len(step) - 2 * openers) > MAX_NODES:
+    if _JSON_SYMBOL is None:
+        _JSON_SYMBOL = _json_tables()
+    raw = np.frombuffer(text.encode("utf-8"), np.uint8)
+    # Without backslashes every '"' opens or closes a string: a bracket is outside one when an
+    # even number of quotes comes before it.
+    symbols = _JSON_SYMBOL[raw]
+    symbols = symbols[symbols != 0]
+    quote = symbols == 1
+    outside = ~quote & ((np.cumsum(quote, dtype=np.int64) & 1) == 0)
+    step = np.where(symbols[outside] == 2, np.int8(1), np.int8(-1))
+    if len(step) and int(np.cumsum(step, dtype=np.int64).max()) + 1 > MAX_DEPTH:  # the value at the deepest level is one more
         return None
     try:
         return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=_refuse, parse_float=_finite_float, parse_int=_short_int)

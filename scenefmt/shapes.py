@@ -7,6 +7,7 @@ moving sphere, box) may also hold a participating medium as their `interior`.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, field_validator, model_validator
@@ -116,16 +117,28 @@ def _plain_sphere_items(items: list) -> list[int]:
     ]
 
 
-def plain_spheres(items: Any) -> Any:
+@dataclass
+class SphereColumns:
+    """The plain spheres of a shape list that `plain_spheres` validated, as columns: the graph
+    makes its runs of spheres from them without reading a million models back."""
+
+    index: "np.ndarray"  # (n,) int64: their places in the list, ascending
+    values: "np.ndarray"  # (n, 4) float64: centre x, y, z and radius
+    material_code: "np.ndarray"  # (n,) int32: each one's material, an entry of `names`
+    names: list[str]
+
+
+def plain_spheres(items: Any) -> tuple[Any, Optional[SphereColumns]]:
     """`items` (a `shapes:` list as parsed) with every plain sphere whose values pass the checks
-    of `Sphere` replaced by its model; the same list if there are few."""
+    of `Sphere` replaced by its model, and those spheres as columns; the same list and None if
+    there are few."""
     import numpy as np
 
     if type(items) is not list or len(items) < PLAIN_SPHERES_AT_ONCE:
-        return items
+        return items, None
     at = _plain_sphere_items(items)
     if len(at) < PLAIN_SPHERES_AT_ONCE:
-        return items
+        return items, None
     def numbers(at):
         for i in at:
             x, y, z = items[i]["center"]
@@ -142,24 +155,32 @@ def plain_spheres(items: Any) -> Any:
     # Number: finite, 0 or of magnitude MIN_MAGNITUDE to MAX_MAGNITUDE; the radius above 0.
     size = np.abs(values)
     good = ((values == 0) | ((size >= MIN_MAGNITUDE) & (size <= MAX_MAGNITUDE))).all(axis=1) & (values[:, 3] > 0)
-    names = {name: _NAME.fullmatch(name) is not None and len(name) <= 64 for name in {items[i]["material"] for i in at}}
+    # Each material name's code, or -1 for a name that is not a valid one.
+    codes: dict[str, int] = {}
+    for name in dict.fromkeys(items[i]["material"] for i in at):  # in the order first used
+        codes[name] = len(codes) if _NAME.fullmatch(name) is not None and len(name) <= 64 else -1
+    names = [name for name, code in sorted(codes.items(), key=lambda kv: kv[1]) if code >= 0]
+    code = np.fromiter((codes[items[i]["material"]] for i in at), np.int32, len(at))
+    good &= code >= 0
     out = list(items)
     fields = tuple(Sphere.model_fields)
     assert fields == ("transform", "material", "interior", "type", "center", "radius"), fields
     new, setattr_ = Sphere.__new__, object.__setattr__
-    for i, ok, (x, y, z, r) in zip(at, good.tolist(), values.tolist()):
-        material = items[i]["material"]
-        if not (ok and names[material]):
-            continue
+    kept = np.flatnonzero(good)
+    index = np.asarray(at, np.int64)[kept]
+    # One set of the keys given for all: the models are frozen, so nothing adds to it (a copy
+    # made with model_copy gets a set of its own).
+    given = {"type", "center", "radius", "material"}
+    for i, (x, y, z, r) in zip(index.tolist(), values[kept].tolist()):
         # What model_validate makes of it (pydantic's own model_construct, at 1/150 of its cost).
         model = new(Sphere)
-        setattr_(model, "__dict__", {"transform": [], "material": material, "interior": None, "type": "sphere",
+        setattr_(model, "__dict__", {"transform": [], "material": items[i]["material"], "interior": None, "type": "sphere",
                                      "center": (x, y, z), "radius": r})
-        setattr_(model, "__pydantic_fields_set__", {"type", "center", "radius", "material"})
+        setattr_(model, "__pydantic_fields_set__", given)
         setattr_(model, "__pydantic_extra__", None)
         setattr_(model, "__pydantic_private__", None)
         out[i] = model
-    return out
+    return out, SphereColumns(index, values[kept], code[kept], names)
 
 
 class MovingSphere(ClosedShapeBase):

@@ -20,7 +20,7 @@ from .includes import resolve_includes
 from .loading import SourceDocument, parse_file, parse_stream, parse_text, paused_gc
 from .overrides import apply_overrides
 from .scene import Scene
-from .shapes import plain_spheres
+from .shapes import SphereColumns, plain_spheres
 
 _SECTIONS = ("textures", "materials", "media", "groups")
 
@@ -75,14 +75,15 @@ def _partial_problems(doc: SourceDocument, exc: ValidationError) -> list[Diagnos
     return graph_problems(partial, doc, broken, shape_paths)
 
 
-def _with_plain_spheres(data: Any) -> Any:
-    """`data` with the plain spheres of its shape lists already validated (shapes.plain_spheres);
-    `data` itself is left as parsed, for the diagnostics."""
+def _with_plain_spheres(data: Any) -> tuple[Any, dict[tuple, SphereColumns]]:
+    """`data` with the plain spheres of its shape lists already validated (shapes.plain_spheres),
+    and their columns by the path of their list; `data` itself is left as parsed, for the diagnostics."""
+    columns: dict[tuple, SphereColumns] = {}
     if not isinstance(data, dict):
-        return data
+        return data, columns
     out = data
     shapes = data.get("shapes")
-    fast = plain_spheres(shapes)
+    fast, columns[("shapes",)] = plain_spheres(shapes)
     if fast is not shapes:
         out = {**data, "shapes": fast}
     groups = data.get("groups")
@@ -90,24 +91,25 @@ def _with_plain_spheres(data: Any) -> Any:
         changed = dict(groups)
         for name, group in groups.items():
             if isinstance(group, dict) and "shapes" in group:
-                fast = plain_spheres(group["shapes"])
+                fast, columns[("groups", name, "shapes")] = plain_spheres(group["shapes"])
                 if fast is not group["shapes"]:
                     changed[name] = {**group, "shapes": fast}
         if any(changed[name] is not groups[name] for name in groups):
             out = {**out, "groups": changed}
-    return out
+    return out, {path: cols for path, cols in columns.items() if cols is not None}
 
 
 def check_document(doc: SourceDocument) -> LoadedScene:
     """Validate parsed data as a scene and resolve its graph; raises `SceneError` with every problem."""
+    data, columns = _with_plain_spheres(doc.data)
     try:
-        scene = Scene.model_validate(_with_plain_spheres(doc.data))
+        scene = Scene.model_validate(data)
     except ValidationError as exc:
         problems = doc.problems + list(diagnostics_from(exc, doc, Scene))
         problems += _partial_problems(doc, exc)
         raise SceneError(problems) from None
     try:
-        graph = build_graph(scene, doc)
+        graph = build_graph(scene, doc, columns=columns)
     except SceneError as exc:
         raise SceneError(doc.problems + exc.diagnostics) from None
     if doc.problems:

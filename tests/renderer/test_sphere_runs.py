@@ -53,6 +53,7 @@ def test_runs_of_spheres_flatten_to_the_tables_of_one_sphere_at_a_time(monkeypat
 
 def test_a_run_of_plain_spheres_in_the_graph_gives_the_tables_summary_and_memory_of_one_node_each(monkeypatch):
     from scenefmt import graph as graph_module
+    from scenefmt import shapes
     from scenefmt.effects import summarize
 
     rng = np.random.default_rng(5)
@@ -61,8 +62,13 @@ def test_a_run_of_plain_spheres_in_the_graph_gives_the_tables_summary_and_memory
     text = SCENE.replace("materials:\n", "materials:\n  l: {type: diffuse_light, emit: [4, 4, 4]}\n") + many
     text = text.replace("shapes:\n      -", f"shapes:\n{many.replace('  - ', '      - ')}      -", 1)  # a run in the group too
     monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 2)
+    monkeypatch.setattr(shapes, "PLAIN_SPHERES_AT_ONCE", 1)  # runs made from the columns validated in bulk
     runs = loads(text).graph
     assert sum(m.kind == "sphere_run" for g in [runs.root, *runs.groups] for m in g.members) >= 2
+    from_models = graph_module.build_graph(loads(text).scene)  # runs made from the models
+    assert [len(m) for m in from_models.root.members if m.kind == "sphere_run"] == [len(m) for m in runs.root.members if m.kind == "sphere_run"]
+    for name, table in compile_scene(runs)._asdict().items():
+        assert table.tobytes() == getattr(compile_scene(from_models), name).tobytes(), name
     monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 10**9)
     nodes = loads(text).graph
     assert not any(m.kind == "sphere_run" for g in [nodes.root, *nodes.groups] for m in g.members)

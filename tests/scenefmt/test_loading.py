@@ -180,6 +180,8 @@ FAST_CASES = [
     '{"a": 1, "a": 2}',  # duplicate key: reported by the positional parser
     '{"a": NaN}', '{"a": 1e999}', '{"a": [1, 2,]}', '{"a": 1} x', "", '{"a": "' + "9" * 500 + '"}',
     '{"a": ' + "1" * 450 + '}', "[" * 70 + "]" * 70, "[" * 63 + "]" * 63,
+    '["' + "]" * 10 + '", ' + "[" * 66 + "]" * 66 + "]",  # closing brackets in a string do not hide the depth
+    '["' + "[" * 80 + '", 1]',  # nor do opening ones add to it
 ]
 
 

@@ -173,3 +173,26 @@ def test_meshes_with_degenerate_triangles_and_glass_render_no_nan():
     assert any("zero area" in w.message for w in graph.warnings)
     result = render(graph, features=GENERAL)
     assert result.stats.bad_samples == 0 and np.isfinite(result.film.total).all()
+
+
+def test_a_mesh_render_resumes_exactly_and_does_not_depend_on_the_number_of_threads(tmp_path):
+    import numba
+
+    from renderer.state import RenderKey, load_state, save_state
+
+    v, f = meshgen.torus_knot(segments=48, sides=8)
+    ply = meshgen.write_ply(tmp_path / "knot.ply", v, f)
+    graph = build_graph(_mesh_scene(m.Mesh(file=str(ply), smooth=True, material=m.Dielectric(ior=1.5)), samples=7, width=16))
+    key = RenderKey("knot", 16, 16, graph.image.max_depth, graph.image.seed)
+    whole = render(graph, samples=7, features=GENERAL).film
+    save_state(tmp_path / "state.npz", render(graph, samples=3, features=GENERAL).film, key)
+    resumed = render(graph, samples=7, film=load_state(tmp_path / "state.npz", key), features=GENERAL).film
+    assert resumed.samples == 7 and whole.total.max() > 0 and np.isfinite(whole.total).all()
+    assert np.array_equal(resumed.total, whole.total) and np.array_equal(resumed.total_sq, whole.total_sq)
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = render(graph, samples=7, features=GENERAL).film
+    finally:
+        numba.set_num_threads(threads)
+    assert np.array_equal(one.total, whole.total) and np.array_equal(one.total_sq, whole.total_sq)

@@ -23,6 +23,20 @@ watertight test, it gives up the faster, less exact triangle test) and without i
 the best of --reps runs after one warm-up. The answers are compared: ours against the serial
 `probe_rays` on a subset (the same to the bit), and ours against Embree (misses, distances
 within 1e-4 relative, and the triangle hit).
+
+    python benchmarks/embree.py --sizes [--rays 2097152] [--max-triangles 11000000]
+
+How each tree's rate falls as the mesh grows: the same knot at about 10^4, 10^5, 10^6, 3 10^6 and
+10^7 triangles (segments and sides both grown by sqrt(10) a decade, so the triangles keep their
+shape), --rays / 2 rays of each set per size, ours against robust Embree only. The random rays are
+made once, from the smallest knot, and are the same rays at every size; the bounce rays are made
+from each knot with the same seed. Ours and Embree are timed in turn (best of --reps after the
+checked warm-up run), so that both meet the same load. Per size and set it prints both rates,
+their ratio, each rate relative to its own at the smallest size, and log2 N (with log2 N0 / log2 N,
+the fall that the depth of the tree alone would give); then the bytes of our flat scene's node
+tables (nodes_f, nodes_i) and triangle tables (prims_i, tri_i, mesh_i, verts_*) and both builds'
+times. A size is skipped if its estimated peak (SIZES_BYTES_PER_TRIANGLE) exceeds the memory
+available.
 """
 
 from __future__ import annotations
@@ -43,6 +57,12 @@ sys.path.insert(0, str(ROOT))
 CAMERA = (0.0, 0.6, 3.4)  # looking at the origin; the knot spans about [-1, 1]^2 x [-0.6, 0.6]
 EPSILON = 1e-5  # bounce origins off the surface (triangles are about 1e-3 across)
 EMBREE_CHUNK = 16384  # rays per call of EmbreeScene.run
+# --sizes: (segments, sides) of knots of about 10^4, 10^5, 10^6, 3 10^6 and 10^7 triangles, with
+# segments / sides about 32 as in the default 4096 x 128 (which is the 10^6 one).
+SIZES = ((400, 13), (1280, 40), (4096, 128), (7168, 216), (12800, 400))
+# Estimated peak bytes per triangle with both trees built: ours about 300 while flattening
+# (MESH_TRIANGLE_BYTES), the mesh in float64/int64 and float32/int32, Embree's tree and copies.
+SIZES_BYTES_PER_TRIANGLE = 600
 
 
 def knot(segments: int, sides: int):
@@ -180,6 +200,116 @@ def compare(flat, faces, ours, embree):
             int(other.sum()), float(gap[other].max(initial=0.0)), int(both.sum()))
 
 
+def available_bytes() -> int:
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 1 << 62
+
+
+def flat_bytes(flat) -> tuple[int, int, int]:
+    """Bytes of the node tables, of the triangle tables, and of every table of the flat scene."""
+    nodes = flat.nodes_f.nbytes + flat.nodes_i.nbytes
+    triangles = sum(a.nbytes for a in (flat.prims_i, flat.tri_i, flat.mesh_i, flat.verts_f, flat.verts_n, flat.verts_uv))
+    return nodes, triangles, sum(a.nbytes for a in flat)
+
+
+def sizes(args, pool) -> None:
+    """Rates of ours and robust Embree on knots of growing size (--sizes)."""
+    import gc
+
+    import numba
+
+    from embreex import rtcore
+
+    half = args.rays // 2
+    random_set = None
+    rows = []  # (triangles, {set: (ours s, Embree s, hit, hit by one only)}, memory, builds)
+    print(f"Machine: {os.cpu_count()} cores, {args.threads} threads (numba layer {numba.threading_layer()}), "
+          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} at start; {rtcore.EmbreeDevice()!r}. "
+          f"{half:,} rays of each set per size, best of {args.reps} after a warm-up, ours and Embree in turn.", flush=True)
+    for segments, sides in SIZES:
+        n_tri = 2 * segments * sides
+        if n_tri > args.max_triangles:
+            print(f"{n_tri:,} triangles: skipped (over --max-triangles)", flush=True)
+            continue
+        gc.collect()
+        if n_tri * SIZES_BYTES_PER_TRIANGLE > available_bytes():
+            print(f"{n_tri:,} triangles: skipped (about {n_tri * SIZES_BYTES_PER_TRIANGLE / 2**30:.1f} GiB needed, "
+                  f"{available_bytes() / 2**30:.1f} GiB available)", flush=True)
+            continue
+        t_start = time.perf_counter()
+        vertices, faces = knot(segments, sides)
+        flat, our_build = build_ours(vertices, faces)
+        embree, embree_build = build_embree(vertices, faces, robust=True)
+        rng = np.random.default_rng(20)
+        t0 = time.perf_counter()
+        bounce = bounce_rays(flat, half, rng)
+        if random_set is None:  # the same random rays at every size
+            random_set = random_rays(vertices, half, np.random.default_rng(21))
+        ray_seconds = time.perf_counter() - t0
+        per_set = {}
+        for name, (origins, dirs) in (("bounce", bounce), ("random", random_set)):
+            origins, dirs = np.ascontiguousarray(origins), np.ascontiguousarray(dirs)
+            o32, d32 = origins.astype(np.float32), dirs.astype(np.float32)
+            ours = run_ours(flat, origins, dirs)
+            theirs = run_embree(embree, o32, d32, pool)
+            one_only = int(((ours[1] < 0) != (theirs[1] < 0)).sum())
+            # Ours and Embree in turn, so that both meet the same load on a shared machine.
+            s_ours = s_embree = math.inf
+            for _ in range(args.reps):
+                t0 = time.perf_counter()
+                run_ours(flat, origins, dirs)
+                t1 = time.perf_counter()
+                run_embree(embree, o32, d32, pool)
+                t2 = time.perf_counter()
+                s_ours, s_embree = min(s_ours, t1 - t0), min(s_embree, t2 - t1)
+            per_set[name] = (s_ours, s_embree, float((ours[1] >= 0).mean()), one_only)
+        memory = flat_bytes(flat)
+        rows.append((n_tri, per_set, memory, (our_build, embree_build)))
+        b, r = per_set["bounce"], per_set["random"]
+        print(f"{n_tri:,} triangles: builds {our_build:.2f} s ours, {embree_build:.2f} s Embree; rays {ray_seconds:.1f} s"
+              f"{' (compiling the kernels too)' if len(rows) == 1 else ''}; "
+              f"bounce {half / b[0] / 1e6:.2f} / {half / b[1] / 1e6:.2f}, random {half / r[0] / 1e6:.2f} / "
+              f"{half / r[1] / 1e6:.2f} Mrays/s (ours / Embree); {time.perf_counter() - t_start:.0f} s in all; "
+              f"load {os.getloadavg()[0]:.2f}", flush=True)
+        del vertices, faces, flat, embree, bounce
+    if not rows:
+        return
+
+    n0 = rows[0][0]
+    print()
+    print(f"Rates against size: rel = the rate over its own at {n0:,} triangles; "
+          f"log2 N0 / log2 N = the fall the tree's depth alone would give.")
+    for name in ("bounce", "random"):
+        first = rows[0][1][name]
+        print()
+        print(f"{name} rays ({half:,}):")
+        print()
+        print("| triangles | log2 N | log2 N0 / log2 N | hit | ours Mrays/s | Embree Mrays/s | ours / Embree | ours rel | Embree rel |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for n_tri, per_set, _, _ in rows:
+            s_ours, s_embree, hit, _ = per_set[name]
+            print(f"| {n_tri:,} | {math.log2(n_tri):.1f} | {math.log2(n0) / math.log2(n_tri):.2f} | {hit:.0%} "
+                  f"| {half / s_ours / 1e6:.2f} | {half / s_embree / 1e6:.2f} | {s_embree / s_ours:.2f} "
+                  f"| {first[0] / s_ours:.2f} | {first[1] / s_embree:.2f} |")
+    print()
+    print("Our flat scene and the builds:")
+    print()
+    print("| triangles | node tables MB | triangle tables MB | all tables MB | bytes / triangle | build ours s | build Embree s |")
+    print("|---|---|---|---|---|---|---|")
+    for n_tri, _, (nodes, tris, total), (our_build, embree_build) in rows:
+        print(f"| {n_tri:,} | {nodes / 1e6:.1f} | {tris / 1e6:.1f} | {total / 1e6:.1f} | {total / n_tri:.0f} "
+              f"| {our_build:.2f} | {embree_build:.2f} |")
+    print()
+    one_only = {name: [per_set[name][3] for _, per_set, _, _ in rows] for name in ("bounce", "random")}
+    print(f"Rays hit by one and missed by the other, by size: bounce {one_only['bounce']}, random {one_only['random']}. "
+          f"Load average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}.")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--segments", type=int, default=4096)
@@ -188,6 +318,8 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--check", type=int, default=1 << 16, help="rays of each set checked against probe_rays")
+    ap.add_argument("--sizes", action="store_true", help="rates against mesh size, 10^4 to 10^7 triangles (robust Embree)")
+    ap.add_argument("--max-triangles", type=int, default=11_000_000, help="--sizes: largest mesh")
     args = ap.parse_args()
 
     import numba
@@ -199,6 +331,10 @@ def main() -> None:
     from renderer.kernels.probe import probe_rays
 
     numba.set_num_threads(args.threads)
+    if args.sizes:
+        with ThreadPoolExecutor(args.threads) as pool:
+            sizes(args, pool)
+        return
     rng = np.random.default_rng(20)
     vertices, faces = knot(args.segments, args.sides)
     flat, our_build = build_ours(vertices, faces)

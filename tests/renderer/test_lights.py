@@ -34,6 +34,8 @@ CASES = [
     ("quad", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0, 0.5, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
     ("parallelogram", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0.6, 0.4, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
     ("close rectangle", "shapes: [{type: quad, q: [-3, 0.05, -2], u: [6, 0, 0], v: [0, 0, 4], material: lamp}]", (0.3, 0.0, 0.2), 0.0),
+    # Beyond lights.FAR_RECTANGLE times its edges from its centre: sampled by area.
+    ("far rectangle", "shapes: [{type: quad, q: [-0.5, 6, -0.4], u: [1, 0, 0], v: [0, 0.3, 0.8], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
     ("rotated rectangle", "groups: {panel: {shapes: [{type: quad, q: [-1, 0, -1], u: [2, 0, 0], v: [0, 0, 1.5], material: lamp}]}}\n"
      "shapes: [{type: instance, group: panel, transform: [{scale: 0.8}, {rotate: {axis: [1, 0, 1], degrees: 150}}, {translate: [0.3, 2, 0]}]}]",
      (0.0, 0.0, 0.0), 0.0),

@@ -150,7 +150,7 @@ def test_a_ply_and_an_obj_of_the_same_mesh_give_the_same_image_bit_for_bit_and_r
 
 
 def test_a_finely_cut_icosphere_renders_within_noise_of_the_sphere_it_approximates():
-    v, f = meshgen.icosphere(48)  # 46,080 triangles
+    v, f = meshgen.icosphere(224)  # 1,003,520 triangles
     mesh = render(build_graph(_mesh_scene(m.Mesh(vertices=v, faces=f, smooth=True, material="white"), seed=1, samples=32)),
                   features=GENERAL)
     sphere = render(build_graph(_mesh_scene(m.Sphere(center=(0, 0, 0), radius=1, material="white"), seed=2, samples=32)),

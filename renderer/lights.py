@@ -66,8 +66,8 @@ SMALL_CONE = 1e-4
 # A rectangle subtending less than this solid angle is sampled by area: its spherical sampling
 # would lose digits to the arc cosines, and area sampling is nearly uniform in angle there anyway.
 SMALL_RECTANGLE = 1e-3
-# Farther from its centre than this many times the sum of its edges, a rectangle is sampled by
-# area too: the spherical rectangle's four arc cosines and dozen roots buy little there. On the
+# Farther from its centre than this many times the sum of its edges' |x| + |y| + |z|, a rectangle
+# is sampled by area too: the spherical rectangle's four arc cosines and dozen roots buy little there. On the
 # Cornell box they were 45% of a sample's time and changed its error by under 2%, while sampling
 # all by area, the ceiling beside the lamp included, had 1.4 times the variance.
 FAR_RECTANGLE = 0.5

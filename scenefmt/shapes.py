@@ -157,9 +157,12 @@ def plain_spheres(items: Any) -> tuple[Any, Optional[SphereColumns]]:
     good = ((values == 0) | ((size >= MIN_MAGNITUDE) & (size <= MAX_MAGNITUDE))).all(axis=1) & (values[:, 3] > 0)
     # Each material name's code, or -1 for a name that is not a valid one.
     codes: dict[str, int] = {}
+    names: list[str] = []  # the valid ones, each at its code
     for name in dict.fromkeys(items[i]["material"] for i in at):  # in the order first used
-        codes[name] = len(codes) if _NAME.fullmatch(name) is not None and len(name) <= 64 else -1
-    names = [name for name, code in sorted(codes.items(), key=lambda kv: kv[1]) if code >= 0]
+        valid = _NAME.fullmatch(name) is not None and len(name) <= 64
+        codes[name] = len(names) if valid else -1
+        if valid:
+            names.append(name)
     code = np.fromiter((codes[items[i]["material"]] for i in at), np.int32, len(at))
     good &= code >= 0
     out = list(items)

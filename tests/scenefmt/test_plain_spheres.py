@@ -93,3 +93,10 @@ def test_a_scene_reads_the_same_and_reports_the_same_errors(monkeypatch):
         loads(bad)
     assert [str(d) for d in excinfo.value.diagnostics] == errors["one"]
     assert len(errors["one"]) == 2 and "shapes[8].center" in errors["one"][0] and "shapes[9].radius" in errors["one"][1]
+
+
+def test_columns_name_each_spheres_material_when_some_names_are_not_valid(at_once):
+    items = [{"type": "sphere", "center": [k, 0, 0], "radius": 1, "material": ["a", "bad name", "b", "c"][k % 4]} for k in range(8)]
+    out, columns = plain_spheres(items)
+    assert [columns.names[c] for c in columns.material_code] == [out[i].material for i in columns.index]
+    assert [items[i]["material"] for i in columns.index] == ["a", "b", "c", "a", "b", "c"]

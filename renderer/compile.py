@@ -56,11 +56,11 @@ class _Tree:
         self.hi.append(hi)
         self.count += 1
 
-    def add_block(self, kind: int, material, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
-        """Add rows made in numpy; `material` is one material row for all, or one for each."""
+    def add_block(self, kind: int, material: np.ndarray, rows: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Add rows made in numpy, with a material row each."""
         self._close_block()
         n = len(rows)
-        self.blocks.append((np.full(n, kind, np.int32), np.full(n, material, np.int32), rows, lo, hi))
+        self.blocks.append((np.full(n, kind, np.int32), np.asarray(material, np.int32), rows, lo, hi))
         self.count += n
 
     def _close_block(self) -> None:
@@ -189,25 +189,27 @@ class _Walk:
             self.last_transform, self.last_similar = m, self.similarity(m)[1] is not None
         return self.last_similar
 
+    def add_spheres(self, tree: _Tree, centers: np.ndarray, radii: np.ndarray, material_rows: np.ndarray, m) -> None:
+        """Add plain spheres baked through the similarity m, in their order, with a material row each."""
+        rows, lo, hi = spheres.flatten_run(centers, radii, m, *self.similarity(m))
+        tree.add_block(SPHERE, material_rows, rows, lo, hi)
+
     def sphere_run(self, tree: _Tree, run: list) -> None:
-        """Add a run of plain spheres: grouped by material and transform, in their order."""
+        """Add a run of plain sphere nodes, grouped by transform, in their order."""
         start = 0
         for k in range(1, len(run) + 1):
-            if k == len(run) or run[k].material is not run[start].material or run[k].transform != run[start].transform:
+            if k == len(run) or run[k].transform != run[start].transform:
                 part = run[start:k]
-                m = part[0].transform
-                lin, s = self.similarity(m)
                 centers = np.array([shape.model.center for shape in part], np.float64).reshape(-1, 3)
                 radii = np.array([shape.model.radius for shape in part], np.float64)
-                rows, lo, hi = spheres.flatten_run(centers, radii, m, lin, s)
-                tree.add_block(SPHERE, self.material(part[0].material), rows, lo, hi)
+                material_rows = np.array([self.material(shape.material) for shape in part], np.int32)
+                self.add_spheres(tree, centers, radii, material_rows, part[0].transform)
                 start = k
 
     def sphere_run_node(self, tree: _Tree, run: SphereRunNode) -> None:
         """Add the spheres of a graph's run (no transform of their own), in their order."""
         material_rows = np.array([self.material(node) for node in run.materials], np.int32)[run.material_index]
-        rows, lo, hi = spheres.flatten_run(run.centers, run.radii, affine.IDENTITY, *self.similarity(affine.IDENTITY))
-        tree.add_block(SPHERE, material_rows, rows, lo, hi)
+        self.add_spheres(tree, run.centers, run.radii, material_rows, affine.IDENTITY)
 
     def fill(self, group: GroupNode, tree: _Tree) -> None:
         run: list[ShapeNode] = []  # plain spheres not yet added

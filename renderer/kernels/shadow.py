@@ -15,11 +15,11 @@ from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
-from ..shapes.meshes import NO_SHEAR, hit_mesh_triangle, ray_shear
+from ..shapes.meshes import hit_mesh_triangle
 from .simd import slab4
 from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT,
-                       TLAS_NEXT, at, inverse_direction, slab)
-from .vec import dot, length, xform_point, xform_vector
+                       TLAS_NEXT, at, inverse_direction, ray_constants, slab)
+from .vec import length, xform_point, xform_vector
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
@@ -37,11 +37,7 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
     """Optical depth of the media of the wide tree at `root` along o + t d for t in (0, tmax), or
     inf when a surface lies there. `stack` is intersect_tree's (its node column is reused)."""
     _, stack_i, _ = stack
-    inv = inverse_direction(d)
-    inv_a = 1.0 / dot(d, d)
-    shear = NO_SHEAR
-    if MESHES:
-        shear = ray_shear(d)
+    inv, inv_a, shear = ray_constants(d)
     first_triangle = prims_f.shape[0]
     depth = 0.0
     stack_i[0, 0], stack_i[0, 1] = root, 0

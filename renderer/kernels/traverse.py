@@ -64,6 +64,16 @@ def inverse_direction(d):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def ray_constants(d):
+    """What a walk of a tree needs of a ray's direction, once per walk: its inverse (box slabs),
+    1 / (d . d) (spheres) and its sheared frame (mesh triangles, when the kernel has them)."""
+    shear = NO_SHEAR
+    if MESHES:
+        shear = ray_shear(d)
+    return inverse_direction(d), 1.0 / dot(d, d), shear
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def slab(box, k, o, inv, tmin, tmax):
     """Entry distance of the ray into box k (lo 0:3, hi 3:6) if it meets [tmin, tmax], else inf."""
     t0 = (box[k, TLAS_LO] - o[0]) * inv[0]
@@ -150,11 +160,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, vert
     """
     stack_t, stack_i, deferred = stack
     n_deferred = 0
-    inv = inverse_direction(d)
-    inv_a = 1.0 / dot(d, d)
-    shear = NO_SHEAR
-    if MESHES:
-        shear = ray_shear(d)
+    inv, inv_a, shear = ray_constants(d)
     first_triangle = prims_f.shape[0]
     best_t, best_prim = tmax, -1
     sp = 0

@@ -108,10 +108,12 @@ def integrator_study(graph_small, result):
     from renderer.compile import compile_scene, with_integrator
     from renderer.render import render
 
+    from light_pixels import kept_pixels
+
     reference = result["reference"]
-    # Pixels that see a light directly hold its radiance (the same for both) and, at its edges, the
-    # noise of where in the pixel the light falls, which no light sampling changes: left out.
-    keep = reference.max(axis=2) <= 1.0
+    # Pixels that see a light, wholly or in part, hold its radiance (the same for both) and, at its
+    # edges, the noise of where in the pixel the light falls, which no light sampling changes: left out.
+    keep = kept_pixels(graph_small, reference)
     ref_noise = float(np.sqrt(np.sum(result["reference_var"][keep]) / np.sum(reference[keep] ** 2)))
     rows = []
     for integrator in ("path", "mis"):
@@ -242,8 +244,8 @@ def main() -> int:
                   "The default integrator (`mis`) samples a point on a light at every diffuse or medium vertex and weighs "
                   "it against the path's own hits (multiple importance sampling); `path` is the books' estimator. Same "
                   "reference as above (rendered with `mis`; both converge to it); the error leaves out the pixels that see a "
-                  "light directly (their value is the light's, and their noise is where in the pixel its edge falls, which "
-                  "light sampling does not change). *Ratio* is path's error over mis's at "
+                  "light, wholly or in part, and those brighter than 1 (their value is the light's, and their noise is where "
+                  "in the pixel its edge falls, which light sampling does not change; `benchmarks/light_pixels.py`). *Ratio* is path's error over mis's at "
                   f"equal time (mis's time at {INTEGRATOR_SPP[-1]} spp). At full size, and against Mitsuba 3, see "
                   "[integrators.md](integrators.md) (`benchmarks/integrators.py`).", "",
                   "| scene | integrator | " + " | ".join(f"{n} spp: s, error" for n in INTEGRATOR_SPP) + " | ratio |",

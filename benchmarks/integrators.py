@@ -206,14 +206,17 @@ def main(argv=None) -> int:
             result, noise = equal_time(graph, integrator, args.seconds, args.kernel)
             stats, film = result.stats, result.film
             rmse = error(film.mean(), ref, keep)
-            errors[integrator] = rmse
-            errors_bright[integrator] = error(film.mean(), ref, bright)
+            # The ratios compare errors at exactly the same time: a render stops between passes,
+            # a little before or after the budget, and error falls as one over the root of time.
+            at_budget = math.sqrt(stats.seconds / args.seconds)
+            errors[integrator] = rmse * at_budget
+            errors_bright[integrator] = error(film.mean(), ref, bright) * at_budget
             per = stats.seconds / max(1, film.samples)
             need = "  ".join(f"{math.ceil(film.samples * (noise / t) ** 2):>7} {film.samples * (noise / t) ** 2 * per:>6.0f}"
                              for t in TARGETS)
             print(f"  {integrator:10} {film.samples:>6} {stats.seconds:>6.2f} {stats.rays_per_second / 1e6:>8.2f} "
                   f"{per:>7.3f} {rmse:>8.4f} {100 * noise:>6.2f}%  {need}", flush=True)
-        print(f"  error at equal time, path / mis: {errors['path'] / errors['mis']:.2f} "
+        print(f"  error at equal time ({args.seconds:g} s), path / mis: {errors['path'] / errors['mis']:.2f} "
               f"(with the lamp's rim kept in: {errors_bright['path'] / errors_bright['mis']:.2f})")
         if args.mitsuba and stem == "cornell_box":
             try:
@@ -226,7 +229,7 @@ def main(argv=None) -> int:
             bias = float(np.mean(own[keep]) / np.mean(ref[0][keep]) - 1.0)
             print(f"  mitsuba {variant}: {spp} spp in {seconds:.2f} s, RMSE {noise:.4f} against its own converged image "
                   f"(20x the time; its mean is {100 * bias:+.1f}% from ours: one-sided light); "
-                  f"rt mis / mitsuba error: {errors['mis'] / noise:.2f}")
+                  f"rt mis / mitsuba error at {args.seconds:g} s: {errors['mis'] / (noise * math.sqrt(seconds / args.seconds)):.2f}")
     return 0
 
 

@@ -76,13 +76,17 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
         node = stack_i[at(sp), 0]
         # Every child the segment meets, in any order: one surface anywhere ends the walk.
         t0, t1, t2, t3 = slab4(nodes_f, node, o, inv, 0.0, tmax)
-        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 0, t0, o, d, inv, inv_a, shear, tmax, time, stack_i, sp)
+        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 0, t0, o, d, inv, inv_a, shear,
+                              tmax, time, stack_i, sp)
         depth += add
-        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 1, t1, o, d, inv, inv_a, shear, tmax, time, stack_i, sp)
+        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 1, t1, o, d, inv, inv_a, shear,
+                              tmax, time, stack_i, sp)
         depth += add
-        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 2, t2, o, d, inv, inv_a, shear, tmax, time, stack_i, sp)
+        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 2, t2, o, d, inv, inv_a, shear,
+                              tmax, time, stack_i, sp)
         depth += add
-        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 3, t3, o, d, inv, inv_a, shear, tmax, time, stack_i, sp)
+        add, sp = visit_child(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, nodes_i, node, 3, t3, o, d, inv, inv_a, shear,
+                              tmax, time, stack_i, sp)
         depth += add
         if depth == INF:
             return INF

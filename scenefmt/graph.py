@@ -417,7 +417,8 @@ class _Resolver:
         defined = self.scene.materials
         if columns is not None:  # validated in bulk: the spheres with a material defined
             plain = np.zeros(len(models), bool)
-            ok = np.array([name in defined for name in columns.names] + [False])[columns.material_code]
+            # Every code is an entry of names: plain_spheres keeps no sphere whose name is not valid.
+            ok = np.array([name in defined for name in columns.names], bool)[columns.material_code]
             plain[columns.index[ok]] = True
         else:
             plain = np.fromiter(

@@ -383,8 +383,9 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **lights.no_lights(0, 0),
         **environment.no_environment(),
     )
-    flat = flat._replace(**lights.flatten(flat))
-    return flat._replace(**environment.flatten(flat, walk.graph))
+    light_tables, light_power = lights.flatten(flat)
+    flat = flat._replace(**light_tables)
+    return flat._replace(**environment.flatten(flat, walk.graph, light_power))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

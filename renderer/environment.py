@@ -36,7 +36,7 @@ from numba import njit
 
 from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
 from .columns import Column, Layout
-from .kernels.cdf import search_cdf
+from .kernels.cdf import pmf_and_cdf, search_cdf
 
 ENV_ROW_F = Layout("env_row_f", "float64", [
     Column("cdf", 1, "probability of choosing this row or one above it (the last row is 1)"),
@@ -77,9 +77,7 @@ def tables(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     rows, texels = ENV_ROW_F.array(h), ENV_TEXEL_F.array(h * w)
     if not total > 0.0:
         return rows, texels, 0.0
-    rows[:, ENV_ROW_PMF] = row_sum / total
-    rows[:, ENV_ROW_CDF] = np.cumsum(row_sum) / total
-    rows[-1, ENV_ROW_CDF] = 1.0
+    rows[:, ENV_ROW_PMF], rows[:, ENV_ROW_CDF] = pmf_and_cdf(row_sum, total)
     # A row without light is never chosen; its conditional is uniform only to stay finite.
     safe = np.where(row_sum > 0.0, row_sum, 1.0)[:, None]
     pmf = np.where(row_sum[:, None] > 0.0, f / safe, 1.0 / w)
@@ -102,23 +100,22 @@ def scene_radius(flat) -> float:
     return radius if math.isfinite(radius) and radius > 0.0 else 1.0
 
 
-def choice(flat, env_power: float) -> float:
-    """The probability that a light sample goes to the map (see the module's docstring)."""
+def choice(flat, env_power: float, light_power: float) -> float:
+    """The probability that a light sample goes to the map (see the module's docstring), for
+    area lights of total power `light_power` (lights.flatten's)."""
     if not env_power > 0.0:
         return 0.0
     if len(flat.light_i) == 0:
         return 1.0
-    from .lights import _powers
-
-    area = 2.0 * math.pi * float(_powers(flat, flat.light_i, flat.light_f).sum())
+    area = 2.0 * math.pi * light_power
     env = math.pi * scene_radius(flat) ** 2 * env_power
     share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
     return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
 
 
-def flatten(flat, graph) -> dict[str, np.ndarray]:
-    """The background row and environment tables of `flat` (whose lights are flattened), or
-    nothing for a background that is not an image."""
+def flatten(flat, graph, light_power: float) -> dict[str, np.ndarray]:
+    """The background row and environment tables of `flat` (whose lights are flattened, with
+    total power `light_power`), or nothing for a background that is not an image."""
     from scenefmt.scene import ImageBackground
 
     from .textures import load_image_texels
@@ -132,7 +129,7 @@ def flatten(flat, graph) -> dict[str, np.ndarray]:
     rows, texel_f, power = tables(rgb)
     turn = math.radians(bg.rotate)
     row = IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE), width=float(w), height=float(h), cos_rotate=math.cos(turn),
-                               sin_rotate=math.sin(turn), choose=choice(flat, power))
+                               sin_rotate=math.sin(turn), choose=choice(flat, power, light_power))
     return {"background": np.array(row, np.float64), "env_rgb": rgb.reshape(-1, 3), "env_row_f": rows, "env_texel_f": texel_f}
 
 

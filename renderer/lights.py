@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from .columns import Column, Layout
-from .kernels.cdf import search_cdf
+from .kernels.cdf import pmf_and_cdf, search_cdf
 from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 from .kernels.vec import cross, dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
@@ -113,15 +113,16 @@ def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
             "prim_light": np.full(prims, -1, np.int32)}
 
 
-def flatten(flat) -> dict[str, np.ndarray]:
+def flatten(flat) -> tuple[dict[str, np.ndarray], float]:
     """The light tables of flat scene `flat`: `light_i`, `light_f`, `inst_light` (each
     instance's first light row) and `prim_light` (an emitting primitive's rank among the
     emitters of its tree, -1 for others): the light of a hit is inst_light + prim_light.
     Power-proportional choice needs the mean emission, which `_powers` measures with the
-    kernels' own sampling."""
+    kernels' own sampling; the lights' total power (world area times luminance) comes back
+    too, for weighing them against an environment map."""
     emitting = flat.mat_i[flat.prims_i[:, PRIM_MATERIAL], MAT_KIND] == DIFFUSE_LIGHT
     if not emitting.any():
-        return no_lights(len(flat.prims_i), len(flat.inst_i))
+        return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
     inst_light = np.zeros(len(flat.inst_i), np.int32)
     prim_light = np.full(len(flat.prims_i), -1, np.int32)
     instances, prims = [], []
@@ -160,14 +161,11 @@ def flatten(flat) -> dict[str, np.ndarray]:
     light_i = LIGHT_I.array(len(prim), instance=inst, primitive=prim, strategy=strategy)
     light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v, corner=corner)
     power = _powers(flat, light_i, light_f)
-    total = power.sum()
+    total = float(power.sum())
     if not total > 0.0:  # no light sends anything: nothing to sample
-        return no_lights(len(flat.prims_i), len(flat.inst_i))
-    light_f[:, LIGHT_PMF] = power / total
-    cdf = np.cumsum(power) / total
-    cdf[-1] = 1.0
-    light_f[:, LIGHT_CDF] = cdf
-    return {"light_i": light_i, "light_f": light_f, "inst_light": inst_light, "prim_light": prim_light}
+        return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
+    light_f[:, LIGHT_PMF], light_f[:, LIGHT_CDF] = pmf_and_cdf(power, total)
+    return {"light_i": light_i, "light_f": light_f, "inst_light": inst_light, "prim_light": prim_light}, total
 
 
 def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:

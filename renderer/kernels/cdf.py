@@ -1,6 +1,15 @@
 """Choosing a row of a table by a cumulative distribution: lights by power, environment rows and texels by brightness."""
 
+import numpy as np
 from numba import njit
+
+
+def pmf_and_cdf(weights: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarray]:
+    """The probabilities of rows of `weights` (summing to `total` > 0) and their cdf for
+    search_cdf, whose last entry is exactly 1 so that every u in [0, 1) finds a row."""
+    cdf = np.cumsum(weights) / total
+    cdf[-1] = 1.0
+    return weights / total, cdf
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

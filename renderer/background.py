@@ -49,6 +49,9 @@ def flatten(graph) -> list[float]:
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
 def background(bg, d):
+    """The radiance of a ray that meets nothing, for a solid or sky background row. An image
+    row (BACKGROUND_IMAGE) is environment.environment_radiance's, which also gives the density
+    its MIS weight needs; the integrator asks that one, never this, for an image."""
     lo, hi = BG_BOTTOM, BG_TOP
     if SKY and bg[BG_KIND] == BACKGROUND_SKY:
         a = 0.5 * (unit(d)[1] + 1.0)

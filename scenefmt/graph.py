@@ -22,7 +22,7 @@ from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
-from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, Triangle
+from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, SphereColumns, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
 
 MAX_INSTANCE_NESTING = 16
@@ -89,8 +89,8 @@ class ShapeNode:
 
 @dataclass(eq=False)
 class SphereRunNode:
-    """Consecutive plain spheres of one shape list (each a `sphere` with a named material and no
-    transform or interior of its own), held as columns: a generated scene's million spheres are
+    """Consecutive plain spheres of one shape list (shapes.is_plain_sphere: each a `sphere` with a
+    named material and no transform or interior of its own), held as columns: a generated scene's million spheres are
     then a few arrays that the bounds, the summary and the flattening read in numpy, not a million
     nodes. Sphere k is `models[k]`, written at `path_of(k)`."""
 
@@ -410,20 +410,13 @@ class _Resolver:
 
     def shape_list(self, models: list, list_path: tuple) -> list:
         """The nodes of a list of shapes: a ShapeNode or InstanceNode each, but a SphereRunNode for
-        every SPHERE_RUN_MIN or more plain spheres in a row."""
+        every SPHERE_RUN_MIN or more plain spheres in a row (with a material defined)."""
         import numpy as np
 
-        columns = self.columns.get(list_path)
+        columns = SphereColumns.of_models(models, self.columns.get(list_path))
         defined = self.scene.materials
-        if columns is not None:  # validated in bulk: the spheres with a material defined
-            plain = np.zeros(len(models), bool)
-            # Every code is an entry of names: plain_spheres keeps no sphere whose name is not valid.
-            ok = np.array([name in defined for name in columns.names], bool)[columns.material_code]
-            plain[columns.index[ok]] = True
-        else:
-            plain = np.fromiter(
-                (type(s) is Sphere and not s.transform and s.interior is None and type(s.material) is str and s.material in defined
-                 for s in models), bool, len(models))
+        plain = np.zeros(len(models), bool)
+        plain[columns.index[np.array([name in defined for name in columns.names], bool)[columns.material_code]]] = True
         edges = np.flatnonzero(np.diff(np.concatenate([[0], plain.view(np.int8), [0]])))
         runs = [(start, end) for start, end in zip(edges[::2].tolist(), edges[1::2].tolist()) if end - start >= SPHERE_RUN_MIN]
         members: list = []
@@ -438,23 +431,15 @@ class _Resolver:
             done = end
         return members
 
-    def sphere_run(self, models: list, list_path: tuple, start: int, end: int, columns) -> SphereRunNode:
-        """The run of plain spheres models[start:end], from the columns they were validated into if given."""
+    def sphere_run(self, models: list, list_path: tuple, start: int, end: int, columns: SphereColumns) -> SphereRunNode:
+        """The run of plain spheres models[start:end], from the columns of their list."""
         import numpy as np
 
-        if columns is not None:
-            first = int(np.searchsorted(columns.index, start))
-            rows = slice(first, first + end - start)
-            centers = np.ascontiguousarray(columns.values[rows, :3])
-            radii = columns.values[rows, 3].copy()
-            code, names = columns.material_code[rows], columns.names
-        else:
-            run = models[start:end]
-            centers = np.array([s.center for s in run], np.float64).reshape(-1, 3)
-            radii = np.fromiter((s.radius for s in run), np.float64, len(run))
-            known: dict[str, int] = {}
-            code = np.fromiter((known.setdefault(s.material, len(known)) for s in run), np.int32, len(run))
-            names = list(known)
+        first = int(np.searchsorted(columns.index, start))
+        rows = slice(first, first + end - start)
+        centers = np.ascontiguousarray(columns.values[rows, :3])
+        radii = columns.values[rows, 3].copy()
+        code, names = columns.material_code[rows], columns.names
         # The materials in the order first used, as one node a sphere would resolve them.
         used, at = np.unique(code, return_index=True)
         order = np.argsort(at, kind="stable")

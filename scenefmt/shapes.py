@@ -117,15 +117,60 @@ def _plain_sphere_items(items: list) -> list[int]:
     ]
 
 
+def is_plain_sphere(model) -> bool:
+    """Whether a validated shape is a plain sphere: a `sphere` with a named material and no
+    transform (none, or an empty list) or interior of its own. The one rule: the graph joins runs
+    of these (SphereColumns.of_models), and every sphere `plain_spheres` builds in bulk is one."""
+    return type(model) is Sphere and not model.transform and model.interior is None and type(model.material) is str
+
+
+def sphere_values(models) -> "np.ndarray":
+    """(n, 4) float64: centre x, y, z and radius of each sphere model, in their order."""
+    import numpy as np
+
+    centers = np.array([s.center for s in models], np.float64).reshape(-1, 3)
+    return np.column_stack([centers, np.fromiter((s.radius for s in models), np.float64, len(centers))])
+
+
 @dataclass
 class SphereColumns:
-    """The plain spheres of a shape list that `plain_spheres` validated, as columns: the graph
-    makes its runs of spheres from them without reading a million models back."""
+    """The plain spheres of a shape list as columns: the graph makes its runs of spheres from them
+    without reading a million models back. `plain_spheres` makes them for the spheres it validates
+    in bulk; `of_models` for a list of validated shapes."""
 
     index: "np.ndarray"  # (n,) int64: their places in the list, ascending
     values: "np.ndarray"  # (n, 4) float64: centre x, y, z and radius
     material_code: "np.ndarray"  # (n,) int32: each one's material, an entry of `names`
     names: list[str]
+
+    @classmethod
+    def of_models(cls, models: list, bulk: Optional["SphereColumns"] = None) -> "SphereColumns":
+        """The plain spheres (`is_plain_sphere`) of the validated shapes `models`, their material
+        names coded in the order first used. `bulk`, the columns `plain_spheres` made of some of
+        them, is taken as it is: only the other shapes are read (a sphere written with
+        `transform: []`, say, which the bulk check leaves to pydantic)."""
+        import numpy as np
+
+        if bulk is None:
+            at = [i for i, s in enumerate(models) if is_plain_sphere(s)]
+            codes: dict[str, int] = {}
+        else:
+            taken = np.zeros(len(models), bool)
+            taken[bulk.index] = True
+            at = [i for i in np.flatnonzero(~taken).tolist() if is_plain_sphere(models[i])]
+            if not at:
+                return bulk
+            codes = {name: k for k, name in enumerate(bulk.names)}
+        spheres = [models[i] for i in at] if len(at) < len(models) else models
+        code = np.fromiter((codes.setdefault(s.material, len(codes)) for s in spheres), np.int32, len(at))
+        index, values = np.asarray(at, np.int64), sphere_values(spheres)
+        if bulk is not None:  # the two sets of places, merged in order
+            index = np.concatenate([bulk.index, index])
+            order = np.argsort(index, kind="stable")
+            index = index[order]
+            values = np.concatenate([bulk.values, values])[order]
+            code = np.concatenate([bulk.material_code, code])[order]
+        return cls(index, values, code, list(codes))
 
 
 def plain_spheres(items: Any) -> tuple[Any, Optional[SphereColumns]]:

@@ -100,3 +100,26 @@ def test_columns_name_each_spheres_material_when_some_names_are_not_valid(at_onc
     out, columns = plain_spheres(items)
     assert [columns.names[c] for c in columns.material_code] == [out[i].material for i in columns.index]
     assert [items[i]["material"] for i in columns.index] == ["a", "b", "c", "a", "b", "c"]
+
+
+def test_a_plain_sphere_the_bulk_check_leaves_to_pydantic_joins_its_run_as_it_does_from_the_models(at_once, monkeypatch):
+    """`transform: []` and `interior: null` are plain by the graph's one rule (shapes.is_plain_sphere);
+    the bulk check leaves such a sphere to pydantic, and the graph reads it from its model."""
+    import numpy as np
+
+    from scenefmt import graph as graph_module
+    from scenefmt.graph import build_graph
+
+    monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 2)
+    spheres = [f"  - {{type: sphere, center: [{k}, 0, 0], radius: 0.5, material: {'ab'[k % 3 % 2]}}}" for k in range(7)]
+    spheres[3] = "  - {type: sphere, center: [3, 0, 0], radius: 0.25, material: c, transform: []}"
+    spheres[5] = "  - {type: sphere, center: [5, 0, 0], radius: 0.75, material: a, interior: null}"
+    text = "materials:\n  a: {type: lambertian}\n  b: {type: metal}\n  c: {type: dielectric}\nshapes:\n" + "\n".join(spheres) + "\n"
+    loaded = loads(text)
+    (run,) = loaded.graph.root.members
+    (same,) = build_graph(loaded.scene).root.members  # no columns from the bulk check
+    for got in (run, same):
+        assert got.kind == "sphere_run" and len(got) == 7
+        assert got.centers[:, 0].tolist() == list(range(7)) and got.radii[[3, 5]].tolist() == [0.25, 0.75]
+        assert [got.materials[j].name for j in got.material_index] == ["a", "b", "a", "c", "b", "a", "a"]
+    assert np.array_equal(run.material_index, same.material_index) and run.centers.tobytes() == same.centers.tobytes()

@@ -328,10 +328,7 @@ def _run_extent_and_size(run) -> tuple[int, float, float]:
 
 def _run_lights(run) -> int:
     """Emitting spheres of a graph.SphereRunNode."""
-    import numpy as np
-
-    emits = np.array([node.kind == "diffuse_light" for node in run.materials])
-    return int(emits[run.material_index].sum()) if emits.any() else 0
+    return sum(count for node, count in zip(run.materials, run.material_count.tolist()) if node.kind == "diffuse_light")
 
 
 def _primitives(member) -> int:

@@ -1,6 +1,6 @@
 """Which effects a scene calls for, and the scene element that switches each one on.
 
-Computed from the node graph alone (no Numba; numpy only reads a run of spheres' columns), so `rt validate` can print it and
+Computed from the node graph alone (no numpy, no Numba), so `rt validate` can print it and
 the renderer can choose a kernel that simulates nothing the scene does not use.
 """
 
@@ -147,9 +147,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         counts = summary.instanced_shape_counts if inside else summary.shape_counts
         if isinstance(member, SphereRunNode):
             counts["sphere"] = counts.get("sphere", 0) + len(member)
-            for j, material in enumerate(member.materials):
-                at = (member.material_index == j).nonzero()[0]
-                part = _RunPart(member.path_of(int(at[0])), len(at))
+            for material, first, count in zip(member.materials, member.material_first.tolist(), member.material_count.tolist()):
+                part = _RunPart(member.path_of(first), count)
                 if material.kind == "diffuse_light":
                     emitters.append(part)
                 if material.kind == "dielectric":

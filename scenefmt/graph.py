@@ -99,6 +99,8 @@ class SphereRunNode:
     first: int  # the list index of models[0]
     materials: list[MaterialNode]  # the distinct materials, in the order first used
     material_index: "np.ndarray"  # (n,) int32: each sphere's entry in `materials`
+    material_first: "np.ndarray"  # (m,) int64: for each entry of `materials`, the first sphere that uses it
+    material_count: "np.ndarray"  # (m,) int64: for each entry of `materials`, how many spheres use it
     centers: "np.ndarray"  # (n, 3) float64
     radii: "np.ndarray"  # (n,) float64
 
@@ -440,13 +442,15 @@ class _Resolver:
         centers = np.ascontiguousarray(columns.values[rows, :3])
         radii = columns.values[rows, 3].copy()
         code, names = columns.material_code[rows], columns.names
-        # The materials in the order first used, as one node a sphere would resolve them.
-        used, at = np.unique(code, return_index=True)
+        # The materials in the order first used, as one node a sphere would resolve them, with
+        # where each is first used and how often (what the summary and the bounds read).
+        used, at, count = np.unique(code, return_index=True, return_counts=True)
         order = np.argsort(at, kind="stable")
         slot = np.zeros(used.max() + 1, np.int32)
         slot[used[order]] = np.arange(len(used), dtype=np.int32)
         materials = [self.material_slot(names[used[k]], list_path + (start + int(at[k]), "material")) for k in order]
-        return SphereRunNode(models[start:end], list_path, start, materials, slot[code], centers, radii)
+        return SphereRunNode(models[start:end], list_path, start, materials, slot[code], at[order].astype(np.int64),
+                             count[order].astype(np.int64), centers, radii)
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
         transform = affine.IDENTITY

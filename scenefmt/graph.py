@@ -90,13 +90,12 @@ class ShapeNode:
 @dataclass(eq=False)
 class SphereRunNode:
     """Consecutive plain spheres of one shape list (shapes.is_plain_sphere: each a `sphere` with a
-    named material and no transform or interior of its own), held as columns: a generated scene's million spheres are
-    then a few arrays that the bounds, the summary and the flattening read in numpy, not a million
-    nodes. Sphere k is `models[k]`, written at `path_of(k)`."""
+    named material and no transform or interior of its own), held as columns: a generated scene's
+    million spheres are then a few arrays that the bounds, the summary and the flattening read in
+    numpy, not a million nodes or models. Sphere k is written at `path_of(k)`."""
 
-    models: list  # the Sphere models, in the list's order
     list_path: tuple  # the shape list: ("shapes",) or ("groups", name, "shapes")
-    first: int  # the list index of models[0]
+    first: int  # the list index of its first sphere
     materials: list[MaterialNode]  # the distinct materials, in the order first used
     material_index: "np.ndarray"  # (n,) int32: each sphere's entry in `materials`
     material_first: "np.ndarray"  # (m,) int64: for each entry of `materials`, the first sphere that uses it
@@ -109,7 +108,7 @@ class SphereRunNode:
     interior = None
 
     def __len__(self) -> int:
-        return len(self.models)
+        return len(self.radii)
 
     @property
     def path(self) -> tuple:
@@ -429,12 +428,12 @@ class _Resolver:
                 if member is not None:
                     members.append(member)
             if end > start:
-                members.append(self.sphere_run(models, list_path, start, end, columns))
+                members.append(self.sphere_run(list_path, start, end, columns))
             done = end
         return members
 
-    def sphere_run(self, models: list, list_path: tuple, start: int, end: int, columns: SphereColumns) -> SphereRunNode:
-        """The run of plain spheres models[start:end], from the columns of their list."""
+    def sphere_run(self, list_path: tuple, start: int, end: int, columns: SphereColumns) -> SphereRunNode:
+        """The run of plain spheres at places start to end (not included) of a list, from its columns."""
         import numpy as np
 
         first = int(np.searchsorted(columns.index, start))
@@ -449,7 +448,7 @@ class _Resolver:
         slot = np.zeros(used.max() + 1, np.int32)
         slot[used[order]] = np.arange(len(used), dtype=np.int32)
         materials = [self.material_slot(names[used[k]], list_path + (start + int(at[k]), "material")) for k in order]
-        return SphereRunNode(models[start:end], list_path, start, materials, slot[code], at[order].astype(np.int64),
+        return SphereRunNode(list_path, start, materials, slot[code], at[order].astype(np.int64),
                              count[order].astype(np.int64), centers, radii)
 
     def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:

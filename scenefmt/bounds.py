@@ -292,8 +292,7 @@ class SceneBounds:
                 has_own = True
                 facts.shapes += 1
                 if member.material is not None and member.material.kind == "diffuse_light":
-                    facts.lights += len(member.mesh.faces) if member.kind == "mesh" and member.mesh is not None else (
-                        6 if member.kind == "box" else 1)
+                    facts.lights += _rows(member)  # a light row per emitting primitive
                 if member.kind in ("sphere", "moving_sphere") and member.transform != _IDENTITY:
                     facts.placements += 1  # an ellipsoid gets a tree and a placement of its own
             placed_extent = stretch.most * extent + stretch.shift
@@ -331,10 +330,17 @@ def _run_lights(run) -> int:
     return sum(count for node, count in zip(run.materials, run.material_count.tolist()) if node.kind == "diffuse_light")
 
 
-def _primitives(member) -> int:
-    """Rows a group member adds to its tree (an instance none, a mesh's triangles are counted apart)."""
+def _rows(member) -> int:
+    """Primitives a group member adds to its tree: a box's six faces, a mesh's triangles, a run's
+    spheres, one of any other shape; an instance none."""
     kind = member.kind
-    return 6 if kind == "box" else len(member) if kind == "sphere_run" else 0 if kind in ("instance", "mesh") else 1
+    if kind == "box":
+        return 6
+    if kind == "mesh":
+        return len(member.mesh.faces) if member.mesh is not None else 0
+    if kind == "sphere_run":
+        return len(member)
+    return 0 if kind == "instance" else 1
 
 
 def _image_pixels(path) -> int:
@@ -388,10 +394,13 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     est.expanded_shapes = root.shapes
     est.instances = root.placements * PLACEMENT_BYTES
     est.parts["instances"] = walk.biggest_instance[1]
-    primitives = triangles = 0
+    primitives = triangles = 0  # a mesh's triangle costs less than another primitive
     for group in walk.groups_seen.values():
-        primitives += sum(_primitives(m) for m in group.members)
-        triangles += sum(len(m.mesh.faces) for m in group.members if m.kind == "mesh" and m.mesh is not None)
+        for m in group.members:
+            if m.kind == "mesh":
+                triangles += _rows(m)
+            else:
+                primitives += _rows(m)
     est.primitives = primitives * PRIMITIVE_BYTES + triangles * MESH_TRIANGLE_BYTES
     est.parts["shapes and trees"] = ("shapes",)
     est.lights = root.lights * LIGHT_BYTES

@@ -373,22 +373,16 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     est.film = image.width * image.pixel_height * FILM_BYTES_PER_PIXEL
     est.parts["film"] = ("image", "width")
     biggest = (0, ())
-    for node in graph.textures:
+    images = [(node, 0) for node in graph.textures]
+    if graph.environment is not None:  # read as an image texture is, then made into sampling tables
+        images.append((graph.environment, ENVIRONMENT_EXTRA_BYTES_PER_PIXEL))
+    for node, extra in images:
         if node.image_path is not None:
             per_pixel = HDR_TEXTURE_BYTES_PER_PIXEL if node.image_peak is not None else TEXTURE_BYTES_PER_PIXEL
-            n = _image_pixels(node.image_path) * per_pixel
+            n = _image_pixels(node.image_path) * (per_pixel + extra)
             est.textures += n
             if n > biggest[0]:
                 biggest = (n, node.path + ("file",))
-    environment = getattr(graph, "environment_path", None)
-    if environment is not None:
-        from .hdr_files import is_hdr
-
-        per_pixel = (HDR_TEXTURE_BYTES_PER_PIXEL if is_hdr(environment) else TEXTURE_BYTES_PER_PIXEL) + ENVIRONMENT_EXTRA_BYTES_PER_PIXEL
-        n = _image_pixels(environment) * per_pixel
-        est.textures += n
-        if n > biggest[0]:
-            biggest = (n, ("background", "file"))
     est.parts["textures"] = biggest[1]
     est.placements = root.placements
     est.expanded_shapes = root.shapes

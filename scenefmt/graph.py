@@ -159,7 +159,13 @@ class SceneGraph:
     warnings: list[Diagnostic] = field(default_factory=list)
     source: Optional[str] = None
     memory: Optional[bounds.MemoryEstimate] = None  # what rendering it needs (scenefmt.bounds)
-    environment_path: Optional[Path] = None  # the resolved file of an image background (environment map)
+    # An image background (environment map) as the image texture it is read as, at ("background",).
+    environment: Optional[TextureNode] = None
+
+    @property
+    def environment_path(self) -> Optional[Path]:
+        """The resolved file of an image background (environment map), or None."""
+        return self.environment.image_path if self.environment is not None else None
 
 
 MAX_TEXTURE_PIXELS = 16384 * 16384
@@ -290,17 +296,23 @@ class _Resolver:
                     return None
                 node.inputs[slot] = child
         elif isinstance(model, ImageTexture):
-            node.image_path = self.image_file(model.file, path + ("file",))
-            if node.image_path is not None and is_hdr(node.image_path):
-                # A float image may hold any value: read it, so its colours are checked as a reflectance or
-                # radiance where it is used (and its values are finite and not negative).
-                try:
-                    node.image_peak = float(read_hdr(node.image_path, MAX_TEXTURE_PIXELS).max(initial=0.0))
-                except HdrProblem as exc:
-                    self.error(path + ("file",), f"image file '{model.file}' {exc}")
-                    node.image_path = None
+            self.image(node)
         self.all_textures.append(node)
         return node
+
+    def image(self, node: TextureNode) -> None:
+        """Set the checked file of an image texture node, and the peak of a float one; after
+        reporting why, no file."""
+        file, where = node.model.file, node.path + ("file",)
+        node.image_path = self.image_file(file, where)
+        if node.image_path is not None and is_hdr(node.image_path):
+            # A float image may hold any value: read it, so its colours are checked as a reflectance or
+            # radiance where it is used (and its values are finite and not negative).
+            try:
+                node.image_peak = float(read_hdr(node.image_path, MAX_TEXTURE_PIXELS).max(initial=0.0))
+            except HdrProblem as exc:
+                self.error(where, f"image file '{file}' {exc}")
+                node.image_path = None
 
     def image_file(self, file: str, path: tuple) -> Optional[Path]:
         if self.doc is None:
@@ -549,7 +561,7 @@ class _Resolver:
             if colour is not None and max(colour) > bounds.MAX_RADIANCE:
                 where = ("background",) if isinstance(scene.background, tuple) else ("background", key)
                 self.error(where, f"a background radiance must be at most {bounds.MAX_RADIANCE:g} per channel, found {max(colour):g}")
-        environment = self.environment_file(background) if isinstance(background, ImageBackground) else None
+        environment = self.environment(background) if isinstance(background, ImageBackground) else None
         return SceneGraph(
             camera=scene.camera,
             image=scene.image,
@@ -562,29 +574,20 @@ class _Resolver:
             groups=list(self.groups.values()),
             warnings=self.mesh_warnings + warnings,
             source=self.doc.file if self.doc is not None else None,
-            environment_path=environment,
+            environment=environment,
         )
 
-    def environment_file(self, model: ImageBackground) -> Optional[Path]:
-        """The checked file of an environment map, or None after reporting why. Checked as an image
-        texture's is (a regular file, its size from the header), and read whole here, as a float
-        texture is when it holds floats, so that its values (finite, not negative, and times
-        `strength` a radiance at most bounds.MAX_RADIANCE) are known before anything renders."""
-        where = ("background", "file")
-        path = self.image_file(model.file, where)
-        if path is None or self.doc is None:
-            return path
-        peak = 1.0  # an 8-bit image, read as sRGB: at most 1
-        if is_hdr(path):
-            try:
-                peak = float(read_hdr(path, MAX_TEXTURE_PIXELS).max(initial=0.0))
-            except HdrProblem as exc:
-                self.error(where, f"image file '{model.file}' {exc}")
-                return None
-        if peak * model.strength > bounds.MAX_RADIANCE:
+    def environment(self, model: ImageBackground) -> TextureNode:
+        """An environment map as the image texture it is read as (an 8-bit image as sRGB): its file
+        checked, and a float one read whole, as any image texture's; its brightest value times
+        `strength` is then checked as a radiance (at most bounds.MAX_RADIANCE)."""
+        node = TextureNode(ImageTexture(file=model.file, colorspace="srgb"), None, ("background",))
+        self.image(node)
+        peak = bounds.texture_peak(node)[0]
+        if node.image_path is not None and peak * model.strength > bounds.MAX_RADIANCE:
             self.error(("background", "strength"), f"a background radiance must be at most {bounds.MAX_RADIANCE:g} per channel, "
                        f"found {peak * model.strength:g} (the image's brightest value {peak:g} times strength {model.strength:g})")
-        return path
+        return node
 
 
 def build_graph(

@@ -6,7 +6,7 @@ import pytest
 
 from renderer.environment import ENV_ROW_CDF, ENV_ROW_PMF, ENV_TEXEL_CDF, ENV_TEXEL_DENSITY, tables
 from renderer.film import write_exr, write_pfm
-from scenefmt.bounds import ENVIRONMENT_EXTRA_BYTES_PER_PIXEL, HDR_TEXTURE_BYTES_PER_PIXEL
+from scenefmt.bounds import ENVIRONMENT_EXTRA_BYTES_PER_PIXEL, HDR_TEXTURE_BYTES_PER_PIXEL, TEXTURE_BYTES_PER_PIXEL
 from scenefmt.diagnostics import SceneError
 from scenefmt.effects import summarize
 from scenefmt.validation import loads
@@ -40,7 +40,11 @@ def test_a_png_map_is_accepted(tmp_path):
     from PIL import Image
 
     Image.fromarray(np.zeros((4, 8, 3), np.uint8)).save(tmp_path / "sky.png")
-    assert loads(scene_with("{type: image, file: sky.png}"), base_dir=tmp_path).graph.environment_path == tmp_path / "sky.png"
+    graph = loads(scene_with("{type: image, file: sky.png}"), base_dir=tmp_path).graph
+    assert graph.environment_path == tmp_path / "sky.png"
+    # Read as an 8-bit image texture is, plus the environment's own tables.
+    assert graph.memory.textures == 32 * (TEXTURE_BYTES_PER_PIXEL + ENVIRONMENT_EXTRA_BYTES_PER_PIXEL)
+    assert graph.memory.parts["textures"] == ("background", "file")
 
 
 def test_unusable_maps_are_scene_errors_at_the_file(tmp_path):

@@ -104,11 +104,20 @@ def _atomic_write_named(path: Path, write) -> None:
         raise
 
 
-def write_png(path: Path, linear: np.ndarray) -> None:
+def png_bytes(linear: np.ndarray) -> bytes:
+    """The 8-bit PNG of a linear image (`to_srgb8`), as bytes: what `write_png` writes."""
+    import io
+
     from PIL import Image
 
-    image = Image.fromarray(to_srgb8(linear), "RGB")
-    _atomic_write(path, lambda fh: image.save(fh, format="PNG"))
+    buffer = io.BytesIO()
+    Image.fromarray(to_srgb8(linear), "RGB").save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def write_png(path: Path, linear: np.ndarray) -> None:
+    data = png_bytes(linear)  # encoded in memory first: a failure leaves no file behind
+    _atomic_write(path, lambda fh: fh.write(data))
 
 
 def write_pfm(path: Path, linear: np.ndarray) -> None:

@@ -11,7 +11,6 @@ Nothing heavy is imported here at module level: `import rt` stays as quick as `r
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -182,16 +181,12 @@ class Image:
 
     def png_bytes(self, exposure: Optional[float] = None) -> bytes:
         """The 8-bit PNG `save` would write, as bytes."""
-        from PIL import Image as PILImage
-
-        from renderer.film import to_srgb8
+        from renderer.film import png_bytes
 
         image = self.film.mean()
         if exposure:
             image = image * 2.0 ** exposure
-        buffer = io.BytesIO()
-        PILImage.fromarray(to_srgb8(image), "RGB").save(buffer, format="PNG")
-        return buffer.getvalue()
+        return png_bytes(image)
 
     def _repr_png_(self) -> bytes:
         return self.png_bytes()

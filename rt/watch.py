@@ -203,13 +203,11 @@ class Previewer:
                 pass
 
     def _post_image(self, film, target: int, display: tuple[int, int], stage: str, started: float) -> None:
-        from renderer.film import relative_noise
-
-        from .api import Image
+        from renderer.film import png_bytes, relative_noise
 
         self.version += 1
         noise = relative_noise(film)
-        png = Image(film, None).png_bytes()
+        png = png_bytes(film.mean())
         latency = time.perf_counter() - self.saved_at if self.saved_at is not None and self.version_first else None
         self.version_first = False
         data = {

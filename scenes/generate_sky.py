@@ -26,6 +26,14 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+try:
+    import scenefmt  # noqa: F401
+except ImportError:  # run from a checkout without the package installed
+    sys.path.insert(0, str(HERE.parent))
+
+from renderer.film import write_pfm  # noqa: E402
+from scenefmt.hdr_files import HdrProblem, read_hdr  # noqa: E402
+
 WIDTH, HEIGHT = 256, 128
 SUN_ELEVATION = math.radians(35.0)
 SUN_U = 0.6
@@ -62,28 +70,22 @@ def sky() -> np.ndarray:
     return image.astype(np.float32)
 
 
-def pfm_bytes(image: np.ndarray) -> bytes:
-    """A colour PFM: little-endian (negative scale), rows bottom to top."""
-    h, w = image.shape[:2]
-    return f"PF\n{w} {h}\n-1.0\n".encode() + np.ascontiguousarray(image[::-1], dtype="<f4").tobytes()
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="exit 1 if scenes/sky.pfm differs from what would be written")
     parser.add_argument("--out", type=Path, default=HERE / "sky.pfm")
     args = parser.parse_args(argv)
     image = sky()
-    data = pfm_bytes(image)
     if args.check:
-        raw = args.out.read_bytes() if args.out.is_file() else b""
-        header = f"PF\n{WIDTH} {HEIGHT}\n-1.0\n".encode()
-        same = raw.startswith(header) and len(raw) == len(data) and np.allclose(
-            np.frombuffer(raw, "<f4", offset=len(header)), np.frombuffer(data, "<f4", offset=len(header)), rtol=1e-5, atol=0.0)
+        try:  # read as a scene reads it
+            committed = read_hdr(args.out, WIDTH * HEIGHT)
+        except HdrProblem:
+            committed = None
+        same = committed is not None and committed.shape == image.shape and np.allclose(committed, image, rtol=1e-5, atol=0.0)
         print(f"{args.out.name}: {'up to date' if same else 'differs from what generate_sky.py writes'}")
         return 0 if same else 1
-    args.out.write_bytes(data)
-    print(f"wrote {args.out} ({WIDTH} x {HEIGHT}, {len(data):,} bytes)")
+    write_pfm(args.out, image)  # little-endian float32, rows bottom to top
+    print(f"wrote {args.out} ({WIDTH} x {HEIGHT}, {args.out.stat().st_size:,} bytes)")
     return 0
 
 

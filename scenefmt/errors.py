@@ -103,11 +103,18 @@ def type_at(root: type, loc: tuple) -> Any:
     return _unwrap(tp)
 
 
-def _expected_tags(root: type, loc: tuple) -> list[str]:
+def _expected_tags(root: type, loc: tuple, typed_only: bool = False) -> list[str]:
+    """The tags of the union at `loc`; with `typed_only`, only those of members chosen by a
+    `type:` key (the models that have one), not a bare value such as a colour triple."""
     tp = type_at(root, loc)
     if typing.get_origin(tp) is Union:
-        return [str(t) for t, _ in _union_members(tp) if t is not None]
+        return [str(t) for t, member in _union_members(tp) if t is not None and (not typed_only or _has_type_key(member))]
     return []
+
+
+def _has_type_key(member: Any) -> bool:
+    inner = _unwrap(member)
+    return isinstance(inner, type) and issubclass(inner, BaseModel) and "type" in inner.model_fields
 
 
 # ----------------------------------------------------------------------------------------------
@@ -214,7 +221,7 @@ def _bad_background(e: _Error) -> Diagnostic:
     # The background's callable discriminator reports every failure as one custom error, with no tag;
     # an unknown `type:` is picked out here so it reads like any other union's.
     if isinstance(e.found, dict) and isinstance(e.found.get("type"), str):
-        return e.doc.diagnostic(e.path + ("type",), _unknown_type_message(e.found["type"], ["solid", "sky", "image"]))
+        return e.doc.diagnostic(e.path + ("type",), _unknown_type_message(e.found["type"], _expected_tags(e.root, e.loc, typed_only=True)))
     return _bad_slot(e)
 
 

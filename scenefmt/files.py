@@ -78,6 +78,15 @@ def recording_reads():
         _reads.reset(token)
 
 
+def record_read(path) -> None:
+    """Add `path` to the files `recording_reads` collects, if it is active: every file opened
+    here is, and a caller that finds a file missing before opening it says so with this (then
+    `rt watch` reloads when the file is created)."""
+    log = _reads.get()
+    if log is not None:
+        log.append(os.path.abspath(os.fsdecode(path)))
+
+
 def open_regular_file(path):
     """The regular file at `path` opened for binary reading (a file object); FileProblem otherwise."""
     fd = _open_regular(path)
@@ -88,9 +97,7 @@ def _open_regular(path) -> int:
     problem = path_problem(path)
     if problem:
         raise FileProblem(problem)
-    log = _reads.get()
-    if log is not None:
-        log.append(os.path.abspath(os.fsdecode(path)))
+    record_read(path)
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
         fd = os.open(Path(path), flags)

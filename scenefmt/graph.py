@@ -16,7 +16,7 @@ from typing import Optional, Union
 from . import affine, bounds
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
-from .files import FileProblem, describe_os_error, open_regular_file, path_problem
+from .files import FileProblem, describe_os_error, open_regular_file, path_problem, record_read
 from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
@@ -329,6 +329,7 @@ class _Resolver:
             self.error(path, f"image file {file!r}: {reason}")
             return None
         if not exists:
+            record_read(resolved)  # looked for: watched, so that creating it counts as a change
             self.error(path, f"image file '{file}' not found (looked for {resolved})")
             return None
         problem = _image_problem(resolved)
@@ -508,6 +509,7 @@ class _Resolver:
                 self.error(where, f"{name}: {reason}")
                 return None
             if not exists:
+                record_read(resolved)  # looked for: watched, so that creating it counts as a change
                 self.error(where, f"{name} not found (looked for {resolved})")
                 return None
             try:

@@ -144,6 +144,30 @@ shapes: [{type: sphere, center: [0, 0, 0], radius: 2, material: e}]
     assert "image file 'maps/mars.png' not found" in errs[0][1]
 
 
+def test_missing_image_and_mesh_files_are_recorded_as_read(tmp_path):
+    """`rt watch` watches the files a load read (files.recording_reads): one looked for and missing
+    too, so that creating it counts as a change."""
+    from scenefmt.files import recording_reads
+    from scenefmt.validation import load
+
+    scene = tmp_path / "scene.yaml"
+    scene.write_text("""
+background: {type: image, file: sky.pfm}
+materials: {e: {type: lambertian, albedo: {type: image, file: maps/earth.png}}}
+shapes:
+  - {type: sphere, center: [0, 0, 0], radius: 2, material: e}
+  - {type: mesh, file: parts/bunny.obj, material: e}
+""")
+    with recording_reads() as reads, pytest.raises(SceneError) as excinfo:
+        load(scene)
+    assert sorted(d.message.split(" not found")[0] for d in excinfo.value.diagnostics) == [
+        "image file 'maps/earth.png'", "image file 'sky.pfm'", "mesh file 'parts/bunny.obj'"]
+    base = tmp_path.resolve()
+    for missing in (base / "maps" / "earth.png", base / "parts" / "bunny.obj", base / "sky.pfm"):
+        assert str(missing) in reads, missing
+    assert str(scene.resolve()) in reads or str(scene) in reads
+
+
 def test_all_errors_of_a_file_are_reported_together():
     errs = errors_of("""
 camera: {vfov: 0}

@@ -9,7 +9,9 @@ therefore imports its siblings relatively, so a copy's modules see the copy's fl
 
 Each copy gets its own Numba disk-cache folder (a subfolder named after its flags): Numba
 keys cached code by source file and signature, not by globals, so copies sharing a folder
-would load each other's machine code.
+would load each other's machine code. `kernels_for` (the progressive render's passes) and
+`tile_kernel_for` (the tiles a cluster's workers render, rt/chunks.py) import their modules
+from the same copy, under its folder.
 
 The flags come from the scene's effects (`scenefmt.effects.summarize`), the same analysis
 `rt validate` prints: an effect is off only where the scene cannot reach its path, so a
@@ -34,7 +36,8 @@ from . import jit_cache
 from . import kernel_flags as _general_flags
 
 _RENDERER_DIR = Path(__file__).resolve().parent
-_loaded: dict[str, types.ModuleType] = {}
+_copies: dict[str, str] = {}  # tag -> package name of the renderer's copy with those flags
+_loaded: dict[tuple[str, str], types.ModuleType] = {}  # (tag, module of kernels/) -> the module
 _lock = threading.Lock()
 
 
@@ -124,20 +127,28 @@ def _variant_cache_dir(tag: str) -> str:
     return os.path.join(base, "variants", tag)
 
 
-def _ready_marker(features: KernelFeatures) -> Path:
+# What a ready marker is about: the progressive render's kernel (kernels/integrator.py) or
+# the tile kernel of a cluster's workers (kernels/tile.py). Each is compiled on first use.
+KERNEL_KINDS = ("kernel", "tile")
+
+
+def _ready_marker(features: KernelFeatures, kind: str = "kernel") -> Path:
     """A file of ours, beside the kernel's cached machine code, that says it was compiled."""
+    if kind not in KERNEL_KINDS:
+        raise ValueError(f"unknown kernel kind {kind!r}: expected one of {', '.join(KERNEL_KINDS)}")
     folder = jit_cache.configure() if features.is_general else _variant_cache_dir(features.tag)
-    return Path(folder or tempfile.gettempdir()) / f"rt-kernel-ready-{features.tag}"
+    return Path(folder or tempfile.gettempdir()) / f"rt-{kind}-ready-{features.tag}"
 
 
-def is_compiled(features: KernelFeatures) -> bool:
-    """Whether the kernel for `features` has been compiled in this installation (and so will load
-    from the disk cache rather than compile): a render says so before a long compile."""
-    return _ready_marker(features).is_file()
+def is_compiled(features: KernelFeatures, kind: str = "kernel") -> bool:
+    """Whether the kernel of `kind` (KERNEL_KINDS) for `features` has been compiled in this
+    installation (and so will load from the disk cache rather than compile): a render says so
+    before a long compile."""
+    return _ready_marker(features, kind).is_file()
 
 
-def mark_compiled(features: KernelFeatures) -> None:
-    marker = _ready_marker(features)
+def mark_compiled(features: KernelFeatures, kind: str = "kernel") -> None:
+    marker = _ready_marker(features, kind)
     try:
         marker.parent.mkdir(parents=True, exist_ok=True)
         marker.touch()
@@ -145,33 +156,51 @@ def mark_compiled(features: KernelFeatures) -> None:
         pass
 
 
-def kernels_for(features: KernelFeatures) -> types.ModuleType:
-    """The integrator module compiled for `features` (the general one if every flag is on)."""
+def _kernel_module(features: KernelFeatures, name: str) -> types.ModuleType:
+    """The module `kernels.<name>` of the renderer compiled for `features`: this package's own if
+    every flag is on, else that of the copy with the scene's flags, imported under its cache folder."""
     if features.is_general:
-        from .kernels import integrator
-
-        return integrator
+        return importlib.import_module(f".kernels.{name}", __package__)
     tag = features.tag
     with _lock:
-        if tag in _loaded:
-            return _loaded[tag]
-        package = f"renderer_{tag.replace('+', '_')}"
-        spec = importlib.util.spec_from_file_location(
-            package, _RENDERER_DIR / "__init__.py", submodule_search_locations=[str(_RENDERER_DIR)]
-        )
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[package] = module
-        spec.loader.exec_module(module)
-        flags = types.ModuleType(f"{package}.kernel_flags", "Flags of one specialised kernel (generated).")
-        for f in fields(KernelFeatures):
-            setattr(flags, f.name.upper(), getattr(features, f.name))
-        flags.NAMES = _general_flags.NAMES
-        sys.modules[flags.__name__] = flags
+        if (tag, name) in _loaded:
+            return _loaded[tag, name]
+        package = _copies.get(tag) or _copy_package(features)
         saved = numba.config.CACHE_DIR
         numba.config.CACHE_DIR = _variant_cache_dir(tag)
         try:
-            integrator = importlib.import_module(f"{package}.kernels.integrator")
+            module = importlib.import_module(f"{package}.kernels.{name}")
         finally:
             numba.config.CACHE_DIR = saved
-        _loaded[tag] = integrator
-        return integrator
+        _loaded[tag, name] = module
+        return module
+
+
+def _copy_package(features: KernelFeatures) -> str:
+    """Import the renderer package again as `renderer_<flags>`, with `features` as its kernel_flags
+    (the caller holds _lock); its name."""
+    tag = features.tag
+    package = f"renderer_{tag.replace('+', '_')}"
+    spec = importlib.util.spec_from_file_location(
+        package, _RENDERER_DIR / "__init__.py", submodule_search_locations=[str(_RENDERER_DIR)]
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[package] = module
+    spec.loader.exec_module(module)
+    flags = types.ModuleType(f"{package}.kernel_flags", "Flags of one specialised kernel (generated).")
+    for f in fields(KernelFeatures):
+        setattr(flags, f.name.upper(), getattr(features, f.name))
+    flags.NAMES = _general_flags.NAMES
+    sys.modules[flags.__name__] = flags
+    _copies[tag] = package
+    return package
+
+
+def kernels_for(features: KernelFeatures) -> types.ModuleType:
+    """The integrator module compiled for `features` (the general one if every flag is on)."""
+    return _kernel_module(features, "integrator")
+
+
+def tile_kernel_for(features: KernelFeatures):
+    """`kernels.tile.render_tile` compiled for `features`: the tile kernel of a cluster's workers."""
+    return _kernel_module(features, "tile").render_tile

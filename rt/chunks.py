@@ -147,48 +147,16 @@ _built_lock = threading.Lock()
 _KEEP_SCENES = 4  # scenes a worker keeps built (a batch renders one after the other)
 
 
-def tile_kernel(features):
-    """`render_tile` compiled for `features` (a variants.KernelFeatures): loaded from the disk cache."""
-    if features.is_general:
-        from renderer.kernels.tile import render_tile
+def warm_tile_kernel(flat, features):
+    """The tile kernel for `features` (a variants.KernelFeatures), compiled or loaded from the disk
+    cache and run once (one pixel, no samples) so that it is ready; marked compiled for the next
+    render's message."""
+    from renderer.variants import mark_compiled, tile_kernel_for
 
-        return render_tile
-    import importlib
-
-    import numba
-
-    from renderer import variants
-
-    integrator = variants.kernels_for(features)
-    package = integrator.__name__.rsplit(".", 1)[0]
-    with variants._lock:
-        saved = numba.config.CACHE_DIR
-        numba.config.CACHE_DIR = variants._variant_cache_dir(features.tag)
-        try:
-            module = importlib.import_module(f"{package}.tile")
-        finally:
-            numba.config.CACHE_DIR = saved
-    return module.render_tile
-
-
-def tile_ready_marker(features) -> Path:
-    from renderer import variants
-
-    return variants._ready_marker(features).with_name(f"rt-tile-ready-{features.tag}")
-
-
-def warm_tile_kernel(flat, features) -> float:
-    """Compile or load the tile kernel (one pixel, no samples); the seconds it took."""
-    t0 = time.perf_counter()
-    kernel = tile_kernel(features)
+    kernel = tile_kernel_for(features)
     kernel(flat, 1, 0, 0, 0, 0, 0, 1, 1, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), np.zeros(1, np.int64), np.zeros(1, np.int64))
-    try:
-        marker = tile_ready_marker(features)
-        marker.parent.mkdir(parents=True, exist_ok=True)
-        marker.touch()
-    except OSError:
-        pass
-    return time.perf_counter() - t0
+    mark_compiled(features, "tile")
+    return kernel
 
 
 def build(package: ScenePackage, features) -> _Built:
@@ -225,8 +193,7 @@ def build(package: ScenePackage, features) -> _Built:
         if flat_digest(flat) != package.digest:
             raise ChunkFailed("a worker built another scene than the client from the same files (different versions of "
                               "rt or its dependencies?)")
-        warm_tile_kernel(flat, features)
-        built = _Built(flat, tile_kernel(features))
+        built = _Built(flat, warm_tile_kernel(flat, features))
         _built[cache_key] = built
         while len(_built) > _KEEP_SCENES:
             _built.popitem(last=False)

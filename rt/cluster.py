@@ -153,6 +153,7 @@ def render_on_cluster(
     distributed = _distributed()
     from renderer.film import Film, relative_noise
     from renderer.render import RenderResult, RenderStats, report_progress
+    from renderer.variants import is_compiled
 
     width, height = frame.width, frame.height
     target = samples if samples is not None else frame.samples
@@ -165,9 +166,11 @@ def render_on_cluster(
     stats.samples = film.samples
 
     # The kernel, compiled once into the disk cache that workers on this machine load from.
-    if notify is not None and not chunks.tile_ready_marker(features).is_file():
+    if notify is not None and not is_compiled(features, "tile"):
         notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
-    stats.kernel_seconds = chunks.warm_tile_kernel(flat, features)
+    started = time.perf_counter()
+    chunks.warm_tile_kernel(flat, features)
+    stats.kernel_seconds = time.perf_counter() - started
 
     if threads is None:
         try:

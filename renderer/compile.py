@@ -18,6 +18,7 @@ import numpy as np
 from scenefmt import affine
 from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, SceneGraph, ShapeNode, SphereRunNode
 from scenefmt.loading import paused_gc
+from scenefmt.shapes import sphere_values
 
 from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
@@ -200,10 +201,9 @@ class _Walk:
         for k in range(1, len(run) + 1):
             if k == len(run) or run[k].transform != run[start].transform:
                 part = run[start:k]
-                centers = np.array([shape.model.center for shape in part], np.float64).reshape(-1, 3)
-                radii = np.array([shape.model.radius for shape in part], np.float64)
+                values = sphere_values([shape.model for shape in part])
                 material_rows = np.array([self.material(shape.material) for shape in part], np.int32)
-                self.add_spheres(tree, centers, radii, material_rows, part[0].transform)
+                self.add_spheres(tree, values[:, :3], values[:, 3], material_rows, part[0].transform)
                 start = k
 
     def sphere_run_node(self, tree: _Tree, run: SphereRunNode) -> None:

@@ -328,6 +328,6 @@ def _render_on_cluster(cluster, scene, reads, loaded, flat, frame, graph, overri
     connection = connect(cluster)
     try:
         return render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features_of(graph), kernel),
-                                 samples=target, **options)
+                                 samples=target, warm_kernel=connection.local, **options)
     finally:
         connection.close()

@@ -49,6 +49,12 @@ class Connection:
     owned: bool = True
 
     @property
+    def local(self) -> bool:
+        """Whether the workers are processes this connection started on this machine ("local"):
+        they load the kernels from this machine's disk cache."""
+        return self.cluster is not None
+
+    @property
     def description(self) -> str:
         info = self.client.scheduler_info()
         workers = info.get("workers", {})
@@ -147,9 +153,14 @@ def render_on_cluster(
     notify: Optional[Callable[[str], None]] = None,
     chunk_seconds: float = chunks.CHUNK_SECONDS,
     threads: Optional[int] = None,
+    warm_kernel: bool = True,
 ):
     """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
-    same options and the same result (a RenderResult); the image is the local one bit for bit."""
+    same options and the same result (a RenderResult); the image is the local one bit for bit.
+
+    `warm_kernel`: compile the tile kernel here first, into the disk cache that workers on this
+    machine load from (Connection.local); workers elsewhere compile or load their own, so for
+    them it would only delay the render."""
     distributed = _distributed()
     from renderer.film import Film, relative_noise
     from renderer.render import RenderResult, RenderStats, report_progress
@@ -165,12 +176,12 @@ def render_on_cluster(
         film = Film.empty(width, height)
     stats.samples = film.samples
 
-    # The kernel, compiled once into the disk cache that workers on this machine load from.
-    if notify is not None and not is_compiled(features, "tile"):
-        notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
-    started = time.perf_counter()
-    chunks.warm_tile_kernel(flat, features)
-    stats.kernel_seconds = time.perf_counter() - started
+    if warm_kernel:  # compiled once, here, rather than by every worker process at once
+        if notify is not None and not is_compiled(features, "tile"):
+            notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
+        started = time.perf_counter()
+        chunks.warm_tile_kernel(flat, features)
+        stats.kernel_seconds = time.perf_counter() - started
 
     if threads is None:
         try:

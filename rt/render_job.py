@@ -382,7 +382,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             result = render_on_cluster(
                 connection.client, scene.package, flat, frame, features=first_kernel(features, opts.kernel), samples=target,
                 max_depth=opts.max_depth, seed=opts.seed, progress=bar, should_stop=lambda: stop["requested"], film=film,
-                time_budget=scene.budget_seconds, noise_target=opts.noise, notify=bar.notify,
+                time_budget=scene.budget_seconds, noise_target=opts.noise, notify=bar.notify, warm_kernel=connection.local,
             )
         else:
             result = render_flat(

@@ -72,6 +72,7 @@ def test_the_image_is_the_local_render_bit_for_bit(client):
     assert same_sums(image.film, reference.film)
     assert image.stats.rays == reference.stats.rays
     assert image.stats.stop_reason == "samples"
+    assert image.stats.kernel_seconds == 0.0  # a Client of the caller's: its workers load their own kernel
 
 
 def test_a_worker_killed_mid_render_changes_nothing(client):

@@ -200,6 +200,7 @@ def render_on_cluster(
     ahead: list[dict] = [{} for _ in tiles]  # round -> ChunkResult, for rounds past the merged film
     merged = 0  # rounds merged into the film
     running: dict = {}  # future -> (tile index, round)
+    busy: set = set()  # tiles with a chunk running (a tile's rounds form a chain: one at a time)
     cost = [0.0, 0]  # chunk seconds, pixel-samples: the measured speed
     render_start = time.perf_counter()
     last_noise = render_start
@@ -224,9 +225,10 @@ def render_on_cluster(
         future = client.submit(chunks.render_chunk, scene, features_arg, chunk, total, total_sq, pure=False,
                                key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         running[future] = (i, r)
+        busy.add(i)
 
     def may_submit(i: int) -> bool:
-        return (not stop_submitting and done[i] < merged + chunks.LOOKAHEAD and not any(v[0] == i for v in running.values()))
+        return not stop_submitting and done[i] < merged + chunks.LOOKAHEAD and i not in busy
 
     try:
         for i in range(len(tiles)):
@@ -247,6 +249,7 @@ def render_on_cluster(
                 finished = ()
             for future in finished:
                 i, r = running.pop(future)
+                busy.discard(i)
                 try:
                     result = future.result()
                 except Exception as exc:  # noqa: BLE001 - a lost task, cancelled by the scheduler, ...

@@ -121,10 +121,6 @@ class ScenePackage:
             digest.update(name.encode() + b"\0" + hashlib.sha256(data).digest())
         return digest.hexdigest()[:24]
 
-    @property
-    def size(self) -> int:
-        return sum(len(data) for _, data in self.files)
-
 
 def _rooted(root: str, path: str) -> str:
     """`path` (absolute) recreated under `root`, so that relative names between files still resolve."""
@@ -259,7 +255,6 @@ class Rounds:
     CHUNK_SECONDS (the first round is one sample, to measure)."""
 
     start: int
-    target: int
     bounds: list = field(default_factory=list)
 
     def __post_init__(self):
@@ -284,7 +279,9 @@ def next_round_size(previous: int, seconds_per_pixel_sample: float, tile_pixels:
     """Samples in the next round: a chunk of about `chunk_seconds`, at most four times the last
     round, within the samples `left` and, under a time budget, the time left for the whole image."""
     if previous == 0 or seconds_per_pixel_sample <= 0:
-        return max(1, min(1, left))
+        # No speed measured yet: one sample, to measure it. Never more than `left` either, since
+        # a round is planned only while samples are left (left >= 1).
+        return 1
     n = int(chunk_seconds / (seconds_per_pixel_sample * max(1, tile_pixels)))
     n = max(1, min(n, 4 * previous))
     if budget_left is not None:

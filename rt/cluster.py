@@ -56,11 +56,9 @@ class Connection:
 
     @property
     def description(self) -> str:
-        info = self.client.scheduler_info()
-        workers = info.get("workers", {})
-        threads = sum(w.get("nthreads", 0) for w in workers.values())
+        workers = self.client.scheduler_info().get("workers", {})
         where = "a local cluster" if self.cluster is not None else f"the scheduler at {self.client.scheduler.address}"
-        return f"{where}: {len(workers)} workers, {threads} threads"
+        return f"{where}: {len(workers)} workers, {worker_threads(workers)} threads"
 
     def close(self) -> None:
         if not self.owned:
@@ -74,6 +72,11 @@ class Connection:
                 self.cluster.close(timeout=10)
             except Exception:  # noqa: BLE001
                 pass
+
+
+def worker_threads(workers: dict) -> int:
+    """The threads of a scheduler's workers (`Client.scheduler_info()["workers"]`), all together."""
+    return sum(w.get("nthreads", 0) for w in workers.values())
 
 
 def connect(spec, workers: Optional[int] = None) -> Connection:
@@ -152,7 +155,6 @@ def render_on_cluster(
     noise_target: Optional[float] = None,
     notify: Optional[Callable[[str], None]] = None,
     chunk_seconds: float = chunks.CHUNK_SECONDS,
-    threads: Optional[int] = None,
     warm_kernel: bool = True,
 ):
     """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
@@ -183,15 +185,13 @@ def render_on_cluster(
         chunks.warm_tile_kernel(flat, features)
         stats.kernel_seconds = time.perf_counter() - started
 
-    if threads is None:
-        try:
-            client.wait_for_workers(1, timeout=WORKERS_SECONDS)
-        except (TimeoutError, OSError) as exc:
-            raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
-        threads = sum(w.get("nthreads", 0) for w in client.scheduler_info()["workers"].values()) or 1
+    try:
+        client.wait_for_workers(1, timeout=WORKERS_SECONDS)
+    except (TimeoutError, OSError) as exc:
+        raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
+    threads = worker_threads(client.scheduler_info()["workers"]) or 1
     tiles = chunks.plan_tiles(width, height, threads)
-    rounds = chunks.Rounds(film.samples, target)
-    features_arg = features
+    rounds = chunks.Rounds(film.samples)
     scene = client.submit(chunks.package_value, package, key=f"rt-scene-{package.key}-{os.urandom(4).hex()}", pure=False)
 
     # Per tile: its sums after the last round it finished, and those of rounds not merged yet.
@@ -222,7 +222,7 @@ def render_on_cluster(
         start, count = rounds.range(r)
         chunk = chunks.Chunk(tiles[i], r, start, count, width, seed, depth, estimator)
         total, total_sq = latest[i]
-        future = client.submit(chunks.render_chunk, scene, features_arg, chunk, total, total_sq, pure=False,
+        future = client.submit(chunks.render_chunk, scene, features, chunk, total, total_sq, pure=False,
                                key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         running[future] = (i, r)
         busy.add(i)

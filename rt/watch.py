@@ -202,7 +202,7 @@ class Previewer:
             while not self.changed.wait(0.5):
                 pass
 
-    def _post_image(self, film, target: int, display: tuple[int, int], stage: str, started: float) -> None:
+    def _post_image(self, film, target: int, display_width: int, stage: str, started: float) -> None:
         from renderer.film import png_bytes, relative_noise
 
         self.version += 1
@@ -212,8 +212,8 @@ class Previewer:
         self.version_first = False
         data = {
             "version": self.version, "generation": self.generation, "stage": stage, "samples": film.samples,
-            "target": target, "width": film.width, "height": film.height, "display_width": display[0],
-            "display_height": display[1], "noise": noise if noise != float("inf") else None,
+            "target": target, "width": film.width, "height": film.height, "display_width": display_width,
+            "noise": noise if noise != float("inf") else None,
             "seconds": round(time.perf_counter() - started, 3),
             "save_to_image": round(latency, 3) if latency is not None else None,
         }
@@ -267,7 +267,6 @@ class Previewer:
             self.board.post("status", {"generation": generation, "text": text})
         frame = Frame.of(graph)
         target = self.opts.spp if self.opts.spp is not None else frame.samples
-        display = (frame.width, frame.height)
         self.board.post("status", {"generation": generation, "text": "rendering"})
         # A small, fast first pass: a quarter of the width, one sample.
         small = min(PREVIEW_WIDTH, frame.width // 4)
@@ -278,20 +277,20 @@ class Previewer:
             render_flat(small_flat, small_frame, samples=1, film=film, should_stop=self._should_stop, needed=needed,
                         features=kernel)
             if film.samples and not self._should_stop():
-                self._post_image(film, target, display, "preview", started)
+                self._post_image(film, target, frame.width, "preview", started)
         film = Film.empty(frame.width, frame.height)
         last = {"posted": 0.0, "samples": 0}
 
         def progress(_stats) -> None:
             now = time.perf_counter()
             if (now - last["posted"] >= FRAME_SECONDS or film.samples >= target) and not self._should_stop():
-                self._post_image(film, target, display, "render", started)
+                self._post_image(film, target, frame.width, "render", started)
                 last.update(posted=now, samples=film.samples)
 
         render_flat(flat, frame, samples=target, film=film, progress=progress, should_stop=self._should_stop, needed=needed,
                     features=kernel)
         if film.samples and film.samples != last["samples"] and not self._should_stop():
-            self._post_image(film, target, display, "render", started)
+            self._post_image(film, target, frame.width, "render", started)
         if film.samples >= target:
             self._post_image_done(film, started)
 

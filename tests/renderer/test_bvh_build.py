@@ -7,6 +7,9 @@ import pytest
 from renderer import bvh
 from scenefmt import meshgen
 
+# Compiles the tree build's Numba kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
+
 
 def boxes_of(kind: str, n: int):
     rng = np.random.default_rng(n)

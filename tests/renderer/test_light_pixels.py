@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from scenefmt import models as m
 from scenefmt.graph import build_graph
@@ -14,6 +15,9 @@ from tests.renderer.scenes import pixel_rays, render_scene, scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from light_pixels import kept_pixels, sees_light  # noqa: E402
+
+# Renders or runs the compiled kernels (tests/conftest.py).
+pytestmark = pytest.mark.slow
 
 # A small lamp whose edges cut through pixels, in front of a white wall it lights.
 LAMP = m.Quad(q=(-0.53, -0.07, 0.0), u=(0.81, 0.0, 0.0), v=(0.0, 0.77, 0.0), material=m.DiffuseLight(emit=(2.0, 2.0, 2.0)))

@@ -261,8 +261,10 @@ def render(
     _check_int("max_depth", max_depth, 1, 10_000)
     _check_int("seed", seed, 0, 2**63 - 1)
     _check_int("threads", threads, 1, 1 << 16)
-    if integrator is not None and integrator not in ("mis", "path"):
-        raise ValueError(f"integrator={integrator!r}: expected 'mis' or 'path'")
+    from renderer.flat import INTEGRATORS
+
+    if integrator is not None and integrator not in INTEGRATORS:
+        raise ValueError(f"integrator={integrator!r}: expected {' or '.join(map(repr, sorted(INTEGRATORS)))}")
     if kernel not in KERNEL_CHOICES:
         raise ValueError(f"kernel={kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):

@@ -289,8 +289,10 @@ def watch(
     if str(scene) == "-":
         typer.echo("error: rt watch needs a scene file to watch, not standard input", err=True)
         raise typer.Exit(2)
-    if integrator is not None and integrator not in ("mis", "path"):
-        typer.echo(f"error: --integrator {integrator!r}: expected mis or path", err=True)
+    from renderer.flat import INTEGRATORS
+
+    if integrator is not None and integrator not in INTEGRATORS:
+        typer.echo(f"error: --integrator {integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}", err=True)
         raise typer.Exit(2)
     opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides))
     raise typer.Exit(serve(opts, host, port, main_say))

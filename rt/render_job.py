@@ -158,8 +158,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     if opts.kernel not in KERNEL_CHOICES:
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
-    if opts.integrator is not None and opts.integrator not in ("mis", "path"):
-        raise fail(f"error: --integrator {opts.integrator!r}: expected mis or path")
+    from renderer.flat import INTEGRATORS
+
+    if opts.integrator is not None and opts.integrator not in INTEGRATORS:
+        raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
     for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".exr", ".pfm")), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")

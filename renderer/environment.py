@@ -38,17 +38,17 @@ from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
 from .columns import Column, Layout
 from .kernels.cdf import pmf_and_cdf, search_cdf
 
+# A row's or texel's own probability is its cdf less the one before (no column of its own: on a
+# large map that column would be a fifth of the map's memory).
 ENV_ROW_F = Layout("env_row_f", "float64", [
-    Column("cdf", 1, "probability of choosing this row or one above it (the last row is 1)"),
-    Column("pmf", 1, "probability of choosing this row: its share of luminance x sin(theta)"),
+    Column("cdf", 1, "probability of choosing this row or one above it, by luminance x sin(theta) (the last row is 1)"),
 ])
 ENV_TEXEL_F = Layout("env_texel_f", "float64", [
     Column("cdf", 1, "probability, within its row, of choosing this texel or one left of it"),
-    Column("pmf", 1, "probability of choosing this texel, given its row"),
     Column("density", 1, "p(u, v): the density of a sample in the unit square of (u, v) over this texel"),
 ])
-ENV_ROW_CDF, ENV_ROW_PMF = ENV_ROW_F.offsets("cdf", "pmf")
-ENV_TEXEL_CDF, ENV_TEXEL_PMF, ENV_TEXEL_DENSITY = ENV_TEXEL_F.offsets("cdf", "pmf", "density")
+(ENV_ROW_CDF,) = ENV_ROW_F.offsets("cdf")
+ENV_TEXEL_CDF, ENV_TEXEL_DENSITY = ENV_TEXEL_F.offsets("cdf", "density")
 ENV_WIDTH, ENV_HEIGHT, ENV_COS, ENV_SIN, ENV_CHOOSE = IMAGE_BACKGROUND.offsets(
     "width", "height", "cos_rotate", "sin_rotate", "choose")
 
@@ -77,13 +77,12 @@ def tables(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     rows, texels = ENV_ROW_F.array(h), ENV_TEXEL_F.array(h * w)
     if not total > 0.0:
         return rows, texels, 0.0
-    rows[:, ENV_ROW_PMF], rows[:, ENV_ROW_CDF] = pmf_and_cdf(row_sum, total)
+    rows[:, ENV_ROW_CDF] = pmf_and_cdf(row_sum, total)[1]
     # A row without light is never chosen; its conditional is uniform only to stay finite.
     safe = np.where(row_sum > 0.0, row_sum, 1.0)[:, None]
     pmf = np.where(row_sum[:, None] > 0.0, f / safe, 1.0 / w)
     cdf = np.cumsum(pmf, axis=1)
     cdf[:, -1] = 1.0
-    texels[:, ENV_TEXEL_PMF] = pmf.ravel()
     texels[:, ENV_TEXEL_CDF] = cdf.ravel()
     texels[:, ENV_TEXEL_DENSITY] = (f * (h * w / total)).ravel()
     return rows, texels, total * TWO_PI_SQUARED / (h * w)
@@ -175,12 +174,12 @@ def sample_environment(bg, env_rgb, env_row_f, env_texel_f, u1, u2):
     # The row from the marginal cdf, then the texel from its row's conditional cdf; the place
     # of u within the chosen interval is reused as the position inside the texel.
     row = search_cdf(env_row_f, ENV_ROW_CDF, 0, h, u1)
-    pmf = env_row_f[row, ENV_ROW_PMF]
     below = env_row_f[row - 1, ENV_ROW_CDF] if row > 0 else 0.0
+    pmf = env_row_f[row, ENV_ROW_CDF] - below
     fv = min(max((u1 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5
     k = search_cdf(env_texel_f, ENV_TEXEL_CDF, row * w, w, u2)
-    pmf = env_texel_f[k, ENV_TEXEL_PMF]
     below = env_texel_f[k - 1, ENV_TEXEL_CDF] if k > row * w else 0.0
+    pmf = env_texel_f[k, ENV_TEXEL_CDF] - below
     fu = min(max((u2 - below) / pmf, 0.0), 1.0) if pmf > 0.0 else 0.5
     col = k - row * w
     theta = math.pi * (row + fv) / h

@@ -4,7 +4,7 @@ image textures are, their values checked as radiances; and the sampling tables b
 import numpy as np
 import pytest
 
-from renderer.environment import ENV_ROW_CDF, ENV_ROW_PMF, ENV_TEXEL_CDF, ENV_TEXEL_DENSITY, tables
+from renderer.environment import ENV_ROW_CDF, ENV_TEXEL_CDF, ENV_TEXEL_DENSITY, tables
 from renderer.film import write_exr, write_pfm
 from scenefmt.bounds import ENVIRONMENT_EXTRA_BYTES_PER_PIXEL, HDR_TEXTURE_BYTES_PER_PIXEL, TEXTURE_BYTES_PER_PIXEL
 from scenefmt.diagnostics import SceneError
@@ -76,8 +76,9 @@ def test_the_tables_are_a_density_over_the_map():
     h, w = 6, 10
     lum = 0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]
     f = lum * np.sin(np.pi * (np.arange(h) + 0.5) / h)[:, None]
-    np.testing.assert_allclose(rows[:, ENV_ROW_PMF], f.sum(axis=1) / f.sum())
-    assert rows[2, ENV_ROW_PMF] == 0.0 and rows[-1, ENV_ROW_CDF] == 1.0
+    row_pmf = np.diff(rows[:, ENV_ROW_CDF], prepend=0.0)  # a row's probability: its step of the cdf
+    np.testing.assert_allclose(row_pmf, f.sum(axis=1) / f.sum())
+    assert row_pmf[2] == 0.0 and rows[-1, ENV_ROW_CDF] == 1.0
     density = texels[:, ENV_TEXEL_DENSITY].reshape(h, w)
     assert density.mean() == pytest.approx(1.0)  # each texel covers 1 / (w h) of the unit square
     np.testing.assert_allclose(density, f / f.mean())

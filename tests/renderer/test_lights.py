@@ -15,6 +15,10 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene, with_integrator, with_width
+from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED
+from renderer.kernels.vec import xform_point
+from renderer.lights import (LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_RECTANGLE, LIGHT_STRATEGY, SMALL_RECTANGLE,
+                             light_rectangle, near_rectangle)
 from renderer.render import render
 from scenefmt.validation import loads
 from tests.renderer.kernel_calls import light_pdf_along, light_samples, segment_transmittance
@@ -36,8 +40,10 @@ CASES = [
     ("close rectangle", "shapes: [{type: quad, q: [-3, 0.05, -2], u: [6, 0, 0], v: [0, 0, 4], material: lamp}]", (0.3, 0.0, 0.2), 0.0),
     # Beyond lights.FAR_RECTANGLE times its edges from its centre: sampled by area.
     ("far rectangle", "shapes: [{type: quad, q: [-0.5, 6, -0.4], u: [1, 0, 0], v: [0, 0.3, 0.8], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
+    # Within lights.FAR_RECTANGLE times its edges (1.6 from its centre, in the group's frame, against
+    # 1.75): the spherical rectangle, through an instance's similarity.
     ("rotated rectangle", "groups: {panel: {shapes: [{type: quad, q: [-1, 0, -1], u: [2, 0, 0], v: [0, 0, 1.5], material: lamp}]}}\n"
-     "shapes: [{type: instance, group: panel, transform: [{scale: 0.8}, {rotate: {axis: [1, 0, 1], degrees: 150}}, {translate: [0.3, 2, 0]}]}]",
+     "shapes: [{type: instance, group: panel, transform: [{scale: 0.8}, {rotate: {axis: [1, 0, 1], degrees: 150}}, {translate: [0.3, 1.2, 0]}]}]",
      (0.0, 0.0, 0.0), 0.0),
     ("triangle", "shapes: [{type: triangle, vertices: [[-1, 2, 0], [1.5, 2.5, 0.3], [0, 1.8, 1.2]], material: lamp}]", (0.0, 0.0, 0.0), 0.0),
     ("disk", "shapes: [{type: disk, center: [0.3, 2, 0], normal: [0.2, -1, 0.3], radius: 0.8, material: lamp}]", (0.0, 0.0, 0.0), 0.0),
@@ -57,9 +63,31 @@ CASES = [
 ]
 
 
+# Which of sample_light's ways each rectangle is drawn from its shading point: True, near enough
+# (lights.near_rectangle) to be drawn uniform in the solid angle it subtends; False, by area.
+RECTANGLE_NEAR = {"quad": False, "close rectangle": True, "far rectangle": False, "rotated rectangle": True}
+
+
 def flat_of(text: str, width: int = 8):
     graph = loads(LIGHT + "camera: {look_from: [0, 0, 5], look_at: [0, 0, 0]}\nimage: {width: %d, aspect_ratio: 1}\n" % width + text).graph
     return compile_scene(graph)
+
+
+@pytest.mark.parametrize("name, near", RECTANGLE_NEAR.items(), ids=list(RECTANGLE_NEAR))
+def test_each_rectangle_is_sampled_the_way_its_case_is_meant_to_test(name, near):
+    """The rectangle cases reach the sampler they are there for: the spherical rectangle for the
+    near ones, the rotated one through its instance's transform, and sampling by area for the far ones."""
+    _, shapes, point, _ = next(c for c in CASES if c[0] == name)
+    flat = flat_of(shapes)
+    assert len(flat.light_i) == 1 and flat.light_i[0, LIGHT_STRATEGY] == LIGHT_RECTANGLE
+    inst, prim = flat.light_i[0, LIGHT_INSTANCE], flat.light_i[0, LIGHT_PRIMITIVE]
+    moved = flat.inst_i[inst, INST_UNTRANSFORMED] != 1
+    assert moved == (name == "rotated rectangle")
+    p = tuple(float(x) for x in point)
+    p_tree = xform_point(flat.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+    assert near_rectangle(flat, 0, prim, p_tree) == near
+    if near:
+        assert light_rectangle(flat, 0, prim, p_tree)[8] > SMALL_RECTANGLE  # not too small a solid angle to use
 
 
 def direction_grid(axis, cos_bound):

@@ -67,13 +67,15 @@ def test_a_run_of_plain_spheres_in_the_graph_gives_the_tables_summary_and_memory
     assert sum(m.kind == "sphere_run" for g in [runs.root, *runs.groups] for m in g.members) >= 2
     from_models = graph_module.build_graph(loads(text).scene)  # runs made from the models
     assert [len(m) for m in from_models.root.members if m.kind == "sphere_run"] == [len(m) for m in runs.root.members if m.kind == "sphere_run"]
-    for name, table in compile_scene(runs)._asdict().items():
-        assert table.tobytes() == getattr(compile_scene(from_models), name).tobytes(), name
+    compiled_runs, compiled_from_models = compile_scene(runs), compile_scene(from_models)
+    for name, table in compiled_runs._asdict().items():
+        assert table.tobytes() == getattr(compiled_from_models, name).tobytes(), name
     monkeypatch.setattr(graph_module, "SPHERE_RUN_MIN", 10**9)
     nodes = loads(text).graph
     assert not any(m.kind == "sphere_run" for g in [nodes.root, *nodes.groups] for m in g.members)
-    for name, table in compile_scene(runs)._asdict().items():
-        other = getattr(compile_scene(nodes), name)
+    compiled_nodes = compile_scene(nodes)
+    for name, table in compiled_runs._asdict().items():
+        other = getattr(compiled_nodes, name)
         assert table.dtype == other.dtype and table.shape == other.shape and table.tobytes() == other.tobytes(), name
     assert summarize(runs) == summarize(nodes)
     assert "and 199 more" in summarize(runs).effect("emitters").reason  # 100 emitting spheres in each run

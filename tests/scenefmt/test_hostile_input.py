@@ -355,5 +355,5 @@ def test_a_light_of_zero_area_is_refused_at_validation(shape):
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import loads
 
-    with pytest.raises(SceneError):
+    with pytest.raises(SceneError, match=r"the (quad|triangle) has zero area"):
         loads("materials: {lamp: {type: diffuse_light, emit: [1, 1, 1]}}\nshapes: [" + shape + "]\n")

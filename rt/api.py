@@ -2,9 +2,9 @@
 
 A process that calls `rt.render` more than once pays for imports and kernel loading once: the
 second call of a small image takes milliseconds, not the second or so of a new `rt render`
-process. The steps are those of `rt render` (`rt.render_job.flatten`, `renderer.render_flat`),
-so the same scene, seed and sample count give the same image bit for bit as
-`rt render --hdr out.pfm`.
+process. The steps are those of `rt render` (`rt.render_job.flatten`, `option_problem`,
+`sample_target`, `render_scene`), so the same scene, seed and sample count give the same image
+bit for bit as `rt render --hdr out.pfm`.
 
 Nothing heavy is imported here at module level: `import rt` stays as quick as `rt validate`.
 """
@@ -252,21 +252,23 @@ def render(
     """
     import sys
 
+    from renderer.flat import INTEGRATORS, Frame
     from renderer.variants import KERNEL_CHOICES, features_of
 
-    from .render_job import BUDGET_SAMPLE_CAP, Progress, flatten
+    from .render_job import Progress, flatten, max_threads, option_problem, render_scene, sample_target
 
     _check_int("spp", spp, 1, 1_000_000)
     _check_int("width", width, 1, 32768)
     _check_int("max_depth", max_depth, 1, 10_000)
     _check_int("seed", seed, 0, 2**63 - 1)
     _check_int("threads", threads, 1, 1 << 16)
-    from renderer.flat import INTEGRATORS
-
-    if integrator is not None and integrator not in INTEGRATORS:
+    problem = option_problem(kernel, integrator, threads)
+    if problem == "integrator":
         raise ValueError(f"integrator={integrator!r}: expected {' or '.join(map(repr, sorted(INTEGRATORS)))}")
-    if kernel not in KERNEL_CHOICES:
+    if problem == "kernel":
         raise ValueError(f"kernel={kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
+    if problem == "threads":
+        raise ValueError(f"threads={threads}: at most {max_threads()} threads are available")
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
@@ -276,13 +278,16 @@ def render(
     with recording_reads() as reads:  # the files a cluster's workers need
         loaded = load(scene, overrides)
         graph, flat = flatten(loaded, width, integrator)
-    from renderer.flat import Frame
-
     frame = Frame.of(graph)
-    budgeted = budget is not None or noise is not None
-    target = spp if spp is not None else (BUDGET_SAMPLE_CAP if budgeted else frame.samples)
+    target = sample_target(spp, frame, budget is not None or noise is not None)
+    connection = package = None
+    if cluster is not None:  # raises rt.cluster.ClusterError (a RuntimeError) with a sentence
+        from .cluster import connect, package_scene
+
+        is_file = isinstance(scene, (str, Path)) and str(scene) != "-"
+        package = package_scene(str(scene) if is_file else None, reads, loaded, flat, tuple(overrides), None, width, integrator)
+        connection = connect(cluster)
     bar = Progress(target, budget, noise) if progress is True else None
-    report = bar if bar is not None else (progress or None)
 
     def notify(message: str) -> None:
         if bar is not None:
@@ -290,46 +295,15 @@ def render(
         else:
             sys.stderr.write(message + "\n")
 
-    import numba
-
-    from renderer.render import render_flat
-
-    before = numba.get_num_threads()
-    if threads is not None:
-        if threads > numba.config.NUMBA_NUM_THREADS:
-            raise ValueError(f"threads={threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available")
-        numba.set_num_threads(threads)
     try:
-        if cluster is not None:
-            result = _render_on_cluster(cluster, scene, reads, loaded, flat, frame, graph, overrides, width, integrator,
-                                        target=target, max_depth=max_depth, seed=seed, progress=report,
-                                        should_stop=should_stop, time_budget=budget, noise_target=noise, kernel=kernel,
-                                        notify=notify)
-        else:
-            result = render_flat(
-                flat, frame, samples=target, max_depth=max_depth, seed=seed, progress=report, should_stop=should_stop,
-                time_budget=budget, noise_target=noise, needed=features_of(graph), kernel=kernel, notify=notify,
-            )
+        result = render_scene(
+            flat, frame, features_of(graph), target=target, kernel=kernel, threads=threads, connection=connection,
+            package=package, progress=bar if bar is not None else (progress or None), max_depth=max_depth, seed=seed,
+            should_stop=should_stop, time_budget=budget, noise_target=noise, notify=notify,
+        )
     finally:
-        numba.set_num_threads(before)
-        if bar is not None:
-            bar.close()
+        if connection is not None:
+            connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
     return Image(result.film, result.stats, name, frame.integrator)
 
-
-def _render_on_cluster(cluster, scene, reads, loaded, flat, frame, graph, overrides, width, integrator, *, target, kernel,
-                       **options):
-    """`render` on a Dask cluster (rt/cluster.py); raises rt.cluster.ClusterError (a RuntimeError) with a sentence."""
-    from renderer.variants import features_of, first_kernel
-
-    from .cluster import connect, package_scene, render_on_cluster
-
-    is_file = isinstance(scene, (str, Path)) and str(scene) != "-"
-    package = package_scene(str(scene) if is_file else None, reads, loaded, flat, tuple(overrides), None, width, integrator)
-    connection = connect(cluster)
-    try:
-        return render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features_of(graph), kernel),
-                                 samples=target, warm_kernel=connection.local, **options)
-    finally:
-        connection.close()

@@ -147,6 +147,75 @@ def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = Non
     return graph, compile_scene(graph)
 
 
+def max_threads() -> int:
+    """The most render threads Numba can run in this process."""
+    import numba
+
+    return numba.config.NUMBA_NUM_THREADS
+
+
+def option_problem(kernel: str, integrator: Optional[str], threads: Optional[int]) -> Optional[str]:
+    """The first of a render's options whose value cannot be used: "kernel" (not one of
+    KERNEL_CHOICES), "integrator" (not one of flat.INTEGRATORS) or "threads" (more than
+    `max_threads`); None when every one can. `rt render` and rt.render check these rules here
+    and word the error each their own way."""
+    from renderer.flat import INTEGRATORS
+    from renderer.variants import KERNEL_CHOICES
+
+    if kernel not in KERNEL_CHOICES:
+        return "kernel"
+    if integrator is not None and integrator not in INTEGRATORS:
+        return "integrator"
+    if threads is not None and threads > max_threads():
+        return "threads"
+    return None
+
+
+def sample_target(spp: Optional[int], frame: Frame, budgeted: bool) -> int:
+    """The samples per pixel to render: `spp`, else the scene's; with a time or noise budget
+    (`budgeted`) the count is only a cap, BUDGET_SAMPLE_CAP unless `spp` says."""
+    if spp is not None:
+        return spp
+    return BUDGET_SAMPLE_CAP if budgeted else frame.samples
+
+
+def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, target: int, kernel: str = "auto",
+                 threads: Optional[int] = None, connection=None, package=None, progress=None, **options):
+    """Render a flattened scene: on the cluster of `connection` (rt.cluster.Connection, with the
+    scene's `package`) if one is given, else in this process. The one way `rt render` and
+    rt.render render; a RenderResult.
+
+    `features`: the kernel paths the scene needs (variants.features_of); `kernel`: one of
+    KERNEL_CHOICES; `target`: samples per pixel (`sample_target`); `threads` (checked by
+    `option_problem`): Numba's threads for this render only. A `Progress` given as `progress`
+    draws its final figures and is closed. `options` are those render_flat and
+    render_on_cluster share: max_depth, seed, film, should_stop, time_budget, noise_target, notify.
+    """
+    import numba
+
+    from renderer.render import render_flat
+    from renderer.variants import first_kernel
+
+    before = numba.get_num_threads()
+    try:
+        if threads is not None:
+            numba.set_num_threads(threads)
+        if connection is not None:
+            from .cluster import render_on_cluster
+
+            result = render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features, kernel),
+                                       samples=target, progress=progress, warm_kernel=connection.local, **options)
+        else:
+            result = render_flat(flat, frame, samples=target, progress=progress, needed=features, kernel=kernel, **options)
+        if isinstance(progress, Progress):
+            progress.finish(result.stats)
+        return result
+    finally:
+        numba.set_num_threads(before)
+        if isinstance(progress, Progress):
+            progress.close()
+
+
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -154,14 +223,17 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         budget_seconds = parse_duration(opts.time_budget)
         if budget_seconds is None:
             raise fail(f"error: --time {opts.time_budget!r}: expected a duration such as 30s, 2m, 1h30m or 45")
-    from renderer.variants import KERNEL_CHOICES
+    problem = option_problem(opts.kernel, opts.integrator, opts.threads)
+    if problem == "kernel":
+        from renderer.variants import KERNEL_CHOICES
 
-    if opts.kernel not in KERNEL_CHOICES:
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
-    from renderer.flat import INTEGRATORS
+    if problem == "integrator":
+        from renderer.flat import INTEGRATORS
 
-    if opts.integrator is not None and opts.integrator not in INTEGRATORS:
         raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
+    if problem == "threads":
+        raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
     for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".exr", ".pfm")), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
@@ -318,21 +390,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     (rt.cluster.Connection). Raises Stop for any end but success."""
     import signal
 
-    import numba
-
-    from renderer.render import render_flat
     from renderer.variants import first_kernel
 
     from .cluster import ClusterError  # dask itself is imported only for a cluster
 
     frame = scene.frame
-    if opts.threads is not None:
-        if opts.threads > numba.config.NUMBA_NUM_THREADS:
-            raise fail(f"error: --threads {opts.threads}: at most {numba.config.NUMBA_NUM_THREADS} threads are available")
-        numba.set_num_threads(opts.threads)
     budgeted = scene.budget_seconds is not None or opts.noise is not None
-    # With a time or noise budget the sample count is only a cap.
-    target = opts.spp if opts.spp is not None else (BUDGET_SAMPLE_CAP if budgeted else frame.samples)
+    target = sample_target(opts.spp, frame, budgeted)
 
     def render_key():
         from renderer.state import RenderKey
@@ -378,29 +442,19 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = Progress(target, scene.budget_seconds, opts.noise)
     try:
-        if connection is not None:
-            from .cluster import render_on_cluster
-
-            result = render_on_cluster(
-                connection.client, scene.package, flat, frame, features=first_kernel(features, opts.kernel), samples=target,
-                max_depth=opts.max_depth, seed=opts.seed, progress=bar, should_stop=lambda: stop["requested"], film=film,
-                time_budget=scene.budget_seconds, noise_target=opts.noise, notify=bar.notify, warm_kernel=connection.local,
-            )
-        else:
-            result = render_flat(
-                flat, frame, samples=target, max_depth=opts.max_depth, seed=opts.seed, progress=bar,
-                should_stop=lambda: stop["requested"], film=film, time_budget=scene.budget_seconds,
-                noise_target=opts.noise, needed=features, kernel=opts.kernel, notify=bar.notify,
-            )
+        result = render_scene(
+            flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,
+            package=scene.package, progress=bar, max_depth=opts.max_depth, seed=opts.seed, film=film,
+            should_stop=lambda: stop["requested"], time_budget=scene.budget_seconds, noise_target=opts.noise,
+            notify=bar.notify,
+        )
     except ValueError as exc:
         failure = str(exc)
     except ClusterError as exc:
         failure = str(exc)
     else:
         failure = None
-        bar.finish(result.stats)
     finally:
-        bar.close()
         signal.signal(signal.SIGINT, previous)
     if failure is not None:
         raise fail(f"error: {opts.scene}: {failure}")

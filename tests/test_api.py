@@ -68,6 +68,8 @@ def test_errors_raise_scene_error_with_the_diagnostics_and_bad_options_value_err
         rt.render(scene_file(tmp_path), integrator="bdpt")
     with pytest.raises(ValueError, match="spp=0: expected a whole number from 1"):
         rt.render(scene_file(tmp_path), spp=0)
+    with pytest.raises(ValueError, match=r"threads=65536: at most \d+ threads are available"):
+        rt.render(scene_file(tmp_path), threads=65536)  # checked as rt render checks --threads, before loading
     with pytest.raises(ValueError, match="time='soon'"):
         rt.render(scene_file(tmp_path), time="soon")
     with pytest.raises(TypeError, match="expected a scene file name"):

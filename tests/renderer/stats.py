@@ -117,6 +117,16 @@ def pixel_mean_and_se(film, channel: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return mean, np.sqrt(var / n)
 
 
+def film_mean_and_se(film, pooled: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard error of the mean of all the film's samples, per channel over every
+    pixel; with `pooled`, one mean over the channels as well (each channel's value a sample)."""
+    axis = None if pooled else (0, 1)
+    n = film.samples * (film.total.size if pooled else film.total[..., 0].size)
+    mean = film.total.sum(axis=axis) / n
+    var = film.total_sq.sum(axis=axis) / n - mean * mean
+    return mean, np.sqrt(var / n)
+
+
 def z_limit(tests: int, alpha: float = ALPHA) -> float:
     """|z| bound for `tests` two-sided normal tests at family-wise level alpha (Bonferroni)."""
     # Inverse of the normal tail by bisection on erfc (no scipy).

@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene, with_integrator
+from renderer.film import write_pfm
 from renderer.render import render
 from scenefmt.validation import loads
 from tests.renderer.kernel_calls import environment_lookup, environment_samples, ray_transmittance
-from tests.renderer.stats import ALPHA, block_z, chi2_test, z_limit
+from tests.renderer.stats import ALPHA, block_z, chi2_test, film_mean_and_se, z_limit
 
 # Runs the compiled kernels (tests/conftest.py).
 pytestmark = pytest.mark.slow
@@ -25,15 +26,6 @@ pytestmark = pytest.mark.slow
 N = 100_000
 CELLS = 20
 SUB = 32
-SKY = Path(__file__).resolve().parents[2] / "scenes" / "sky.pfm"
-
-
-def write_pfm(path: Path, rgb) -> Path:
-    """A colour PFM of (h, w, 3) linear values, row 0 at the top."""
-    rgb = np.asarray(rgb, np.float64)
-    h, w = rgb.shape[:2]
-    path.write_bytes(f"PF\n{w} {h}\n-1.0\n".encode() + np.ascontiguousarray(rgb[::-1], "<f4").tobytes())
-    return path
 
 
 def a_map(tmp_path) -> Path:
@@ -45,7 +37,8 @@ def a_map(tmp_path) -> Path:
     rgb[3:5, 17:19] = [60.0, 50.0, 40.0]
     rgb[7] = 0.0
     rgb[9:11, 2:6] = 0.0
-    return write_pfm(tmp_path / "map.pfm", rgb)
+    write_pfm(tmp_path / "map.pfm", rgb)
+    return tmp_path / "map.pfm"
 
 
 def scene(background: str, shapes: str = "", image: str = "width: 8, aspect_ratio: 1") -> str:
@@ -78,7 +71,7 @@ def cell_of(d):
     return i * CELLS + j
 
 
-def cell_test(draws, density, dirs, cell, d_omega):
+def cell_test(draws, density, cell, d_omega):
     probs = np.bincount(cell, weights=density * d_omega, minlength=CELLS * CELLS)
     counts = np.bincount(cell_of(draws), minlength=CELLS * CELLS)
     return chi2_test(counts, probs / probs.sum())
@@ -103,7 +96,7 @@ def test_sampled_directions_follow_the_map_density(tmp_path, rotate):
     dirs, cell, d_omega = sphere_grid()
     density = environment_lookup(flat, dirs)[:, 3]
     assert np.sum(density * d_omega) == pytest.approx(1.0, abs=0.01), "the density does not integrate to 1 over the sphere"
-    p_value, dof = cell_test(d, density, dirs, cell, d_omega)
+    p_value, dof = cell_test(d, density, cell, d_omega)
     assert dof > 100 and p_value > ALPHA, f"chi-square p = {p_value:.2e} with {dof} degrees of freedom"
 
 
@@ -115,9 +108,9 @@ def test_a_wrong_density_is_caught(tmp_path):
     dirs, cell, d_omega = sphere_grid()
     density = environment_lookup(flat, dirs)[:, 3]
     off = density * (1.0 + 0.3 * np.abs(dirs[:, 1]))
-    assert cell_test(d, off / np.sum(off * d_omega), dirs, cell, d_omega)[0] < ALPHA
+    assert cell_test(d, off / np.sum(off * d_omega), cell, d_omega)[0] < ALPHA
     turned = environment_lookup(flat_of(a_map(tmp_path), 8.0), dirs)[:, 3]
-    assert cell_test(d, turned, dirs, cell, d_omega)[0] < ALPHA
+    assert cell_test(d, turned, cell, d_omega)[0] < ALPHA
 
 
 def test_the_mapping_is_the_documented_one(tmp_path):
@@ -129,7 +122,8 @@ def test_the_mapping_is_the_documented_one(tmp_path):
     rgb[1:3, 3:5] = [0, 1, 0]  # about u = 1/2
     rgb[1:3, 5:7] = [0, 2, 0]  # about u = 3/4
     rgb[1:3, [0, 7]] = [0, 3, 0]  # about u = 0
-    path = write_pfm(tmp_path / "compass.pfm", rgb)
+    path = tmp_path / "compass.pfm"
+    write_pfm(path, rgb)
     dirs = np.array([[0, 1, 0], [0, -1, 0], [0, 0, -1], [1, 0, 0], [0, 0, 1.0]])
     plain = environment_lookup(flat_of(path), dirs)[:, :3]
     np.testing.assert_array_equal(plain, [[1, 0, 0], [0, 0, 1], [0, 1, 0], [0, 2, 0], [0, 3, 0]])
@@ -164,16 +158,10 @@ def test_a_shadow_ray_to_infinity_is_blocked_or_attenuated(tmp_path):
     assert 0.0 <= t <= 1.0
 
 
-def film_mean_and_se(film):
-    n = film.samples * film.total[..., 0].size
-    mean = film.total.sum(axis=(0, 1)) / n
-    var = film.total_sq.sum(axis=(0, 1)) / n - mean * mean
-    return mean, np.sqrt(var / n)
-
-
 def test_a_white_sphere_under_a_uniform_environment_of_radiance_one_is_one(tmp_path):
     """The furnace with the map sampled as a light: every pixel's expected value is 1."""
-    uniform = write_pfm(tmp_path / "one.pfm", np.ones((8, 16, 3)))
+    uniform = tmp_path / "one.pfm"
+    write_pfm(uniform, np.ones((8, 16, 3)))
     text = scene(f"{{type: image, file: '{uniform}'}}", "{type: sphere, center: [0, 0, 0], radius: 1.5, material: one}",
                  "width: 16, aspect_ratio: 1, samples_per_pixel: 64, max_depth: 50")
     graph = loads(text).graph
@@ -228,7 +216,8 @@ def test_hard_maps_give_finite_pixels(tmp_path, case):
         rgb[:6] = 0.0
         rgb[-3:] = 0.0
         rgb[8, 4] = 50.0
-    path = write_pfm(tmp_path / "hard.pfm", rgb)
+    path = tmp_path / "hard.pfm"
+    write_pfm(path, rgb)
     strength = 0.0 if case == "strength zero" else 1.0
     text = scene(f"{{type: image, file: '{path}', strength: {strength}}}",
                  "{type: sphere, center: [0, 0, 0], radius: 1, material: white},"

@@ -22,7 +22,7 @@ from renderer.lights import (LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_RECTANGLE, L
 from renderer.render import render
 from scenefmt.validation import loads
 from tests.renderer.kernel_calls import light_pdf_along, light_samples, segment_transmittance
-from tests.renderer.stats import ALPHA, block_z, chi2_test, z_limit
+from tests.renderer.stats import ALPHA, block_z, chi2_test, film_mean_and_se, z_limit
 
 # Runs the compiled kernels (tests/conftest.py).
 pytestmark = pytest.mark.slow
@@ -244,10 +244,7 @@ def test_a_white_sphere_inside_a_lamp_of_radiance_one_is_one():
     exact = render(with_integrator(graph, "path")).film.mean()
     assert np.all(np.abs(exact - 1.0) <= 1e-12)
     film = render(graph).film
-    n = film.samples
-    mean = film.total.sum() / (n * film.total.size)
-    var = film.total_sq.sum() / (n * film.total.size) - mean * mean
-    se = math.sqrt(var / (n * film.total.size))
+    mean, se = film_mean_and_se(film, pooled=True)
     assert abs(mean - 1.0) <= z_limit(1) * se + 1e-12, f"mean {mean} differs from 1 by {abs(mean - 1) / se:.1f} standard errors"
     assert np.all(np.isfinite(film.mean()))
 

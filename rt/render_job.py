@@ -133,16 +133,24 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
-def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
-    """(graph, flat tables) of a loaded scene with --width and --integrator applied; raises
-    SceneError (the film too big for memory) or ValueError (an image that does not decode).
-    The one way from a loaded scene to the kernels' tables: `rt render`, rt.render and `rt watch`."""
-    from renderer.compile import compile_scene, with_integrator, with_width
-    from scenefmt.bounds import check_memory
+def render_graph(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """The scene graph of a loaded scene with --width and --integrator applied."""
+    from renderer.compile import with_integrator, with_width
 
     graph = loaded.graph if width is None else with_width(loaded.graph, width)
     if integrator is not None:
         graph = with_integrator(graph, integrator)
+    return graph
+
+
+def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """(graph, flat tables) of a loaded scene with --width and --integrator applied; raises
+    SceneError (the film too big for memory) or ValueError (an image that does not decode).
+    The one way from a loaded scene to the kernels' tables: `rt render`, rt.render and `rt watch`."""
+    from renderer.compile import compile_scene
+    from scenefmt.bounds import check_memory
+
+    graph = render_graph(loaded, width, integrator)
     check_memory(graph, loaded.document)  # --width changes the film's size
     return graph, compile_scene(graph)
 

@@ -215,3 +215,24 @@ def test_rt_watch_refuses_standard_input_and_a_port_in_use(tmp_path):
         said = []
         assert serve(WatchOptions(tmp_path / "scene.yaml"), "127.0.0.1", taken.getsockname()[1], said.append) == 1
     assert said[0].startswith("error: cannot listen on 127.0.0.1:") and "choose another port with --port" in said[0]
+
+
+def test_the_preview_reuses_the_full_scene_with_its_camera_at_the_preview_width():
+    # Only the camera row depends on the image's size: the preview's tables are the full scene's
+    # with that row replaced, equal to flattening the scene again at the preview width.
+    import numpy as np
+
+    import rt
+    from rt.render_job import flatten
+    from rt.watch import preview_scene
+
+    scenes = Path(__file__).resolve().parents[1] / "scenes"
+    for name, width, integrator in (("cornell_box.yaml", None, None), ("earth.yaml", 300, "path"),
+                                    ("sky_spheres.yaml", 97, None), ("quads.json", None, "mis")):
+        loaded = rt.load(scenes / name)
+        _, flat = flatten(loaded, width, integrator)
+        small_graph, small_flat = preview_scene(loaded, flat, 37, integrator)
+        graph, again = flatten(loaded, 37, integrator)
+        assert small_graph.image == graph.image, name
+        for table, a, b in zip(flat._fields, small_flat, again):
+            assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), (name, table)

@@ -84,6 +84,12 @@ def describe(diag) -> dict:
     return out
 
 
+def placeless_error(text: str, file: str = "", message: Optional[str] = None) -> dict:
+    """An error for the page in `describe`'s shape, for a problem with no line to point at."""
+    return {"text": text, "file": file, "line": 0, "column": 0, "path": "", "message": text if message is None else message,
+            "severity": "error", "source": ""}
+
+
 class Board:
     """What the page shows: a stream of events (status, image, problems) and the latest image's PNG."""
 
@@ -163,6 +169,7 @@ class Previewer:
         self.version = 0
         self.saved_at: Optional[float] = None  # when the poller saw the change being rendered
         self.version_first = False  # the next image is the first since the change
+        self.posted_noise: tuple = (None, 0, float("inf"))  # (film, its samples, relative_noise) of the last image posted
         self.threads = [
             threading.Thread(target=self._render_loop, name="rt-watch-render", daemon=True),
             threading.Thread(target=self._poll_loop, name="rt-watch-poll", daemon=True),
@@ -213,9 +220,8 @@ class Previewer:
                 self._render_once()
             except Exception as exc:  # a bug: keep serving, and say what happened
                 self.say("".join(traceback.format_exception(exc)).rstrip())
-                self.board.post("problems", {"generation": self.generation, "errors": [
-                    {"text": f"internal error: {type(exc).__name__}: {exc}", "file": "", "line": 0, "column": 0,
-                     "path": "", "message": str(exc), "severity": "error", "source": ""}]})
+                error = placeless_error(f"internal error: {type(exc).__name__}: {exc}", message=str(exc))
+                self.board.post("problems", {"generation": self.generation, "errors": [error]})
             while not self.changed.wait(0.5):
                 pass
 
@@ -224,6 +230,7 @@ class Previewer:
 
         self.version += 1
         noise = relative_noise(film)
+        self.posted_noise = (film, film.samples, noise)
         png = png_bytes(film.mean())
         latency = time.perf_counter() - self.saved_at if self.saved_at is not None and self.version_first else None
         self.version_first = False
@@ -262,9 +269,7 @@ class Previewer:
             except ValueError as exc:  # an image that does not decode
                 from scenefmt.diagnostics import escape_control
 
-                text = escape_control(f"{self.opts.scene}: {exc}")
-                errors = [{"text": text, "file": str(self.opts.scene), "line": 0, "column": 0, "path": "",
-                           "message": text, "severity": "error", "source": ""}]
+                errors = [placeless_error(escape_control(f"{self.opts.scene}: {exc}"), str(self.opts.scene))]
             else:
                 errors = []
         self._watch(reads, before)
@@ -314,7 +319,9 @@ class Previewer:
     def _post_image_done(self, film, started: float) -> None:
         from renderer.film import relative_noise
 
-        noise = relative_noise(film)
+        posted, samples, noise = self.posted_noise
+        if posted is not film or samples != film.samples:  # the last pass was not posted (a save stopped it)
+            noise = relative_noise(film)
         noise_text = f", noise {100 * noise:.2f}%" if noise != float("inf") else ""
         self.say(f"rendered {film.width}x{film.height}, {film.samples} spp{noise_text} in {time.perf_counter() - started:.1f} s")
         self.board.post("status", {"generation": self.generation, "text": "done"})

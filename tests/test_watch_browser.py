@@ -1,8 +1,9 @@
 """`rt watch` in a real headless browser: Debian's chromium, driven by playwright (pointed at the
 system browser: nothing is downloaded at run time).
 
-Skipped, saying why, where the browser or playwright is missing: `apt-get install chromium`
-installs the browser; playwright comes with the test extra. RT_SCREENSHOT=path keeps a
+Skipped, saying why, where the browser is missing: `apt-get install chromium` installs it.
+Playwright comes with the test extra, so without it the install is broken and the file fails to
+import rather than skipping. RT_SCREENSHOT=path keeps a
 screenshot of the page showing an image, and one showing an error (path with -error).
 """
 
@@ -13,6 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
+from playwright import sync_api
 
 from rt.watch import Watch, WatchOptions
 
@@ -27,7 +29,6 @@ pytestmark = [
 
 
 def test_the_page_shows_the_image_follows_saves_and_shows_errors_with_their_line(tmp_path):
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is missing: pip install -e '.[test]'")
     (tmp_path / "scene.yaml").write_text(SCENE.replace("width: 64", "width: 240").replace("samples_per_pixel: 8", "samples_per_pixel: 32"))
     (tmp_path / "lib.yaml").write_text(LIB)
     watch = Watch(WatchOptions(tmp_path / "scene.yaml"), port=0, say=lambda m: None).start()

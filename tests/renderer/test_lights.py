@@ -22,7 +22,7 @@ from renderer.lights import (LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_RECTANGLE, L
 from renderer.render import render
 from scenefmt.validation import loads
 from tests.renderer.kernel_calls import light_pdf_along, light_samples, segment_transmittance
-from tests.renderer.stats import ALPHA, block_z, chi2_test, film_mean_and_se, z_limit
+from tests.renderer.stats import ALPHA, chi2_test, film_mean_and_se, z_limit
 
 # Runs the compiled kernels (tests/conftest.py).
 pytestmark = pytest.mark.slow
@@ -153,11 +153,11 @@ def test_sampled_directions_follow_the_light_pdf(name, shapes, point, time):
         assert 0.1 < seen < 0.9, f"{seen:.3f} of the draws should be visible"
     else:
         assert seen == pytest.approx(1.0, abs=0.01), "the density does not integrate to 1 over the light"
-    p_value, dof = cell_test(wi[visible], dirs, cell, density, d_omega, frame, cos_bound)
+    p_value, dof = cell_test(wi[visible], cell, density, d_omega, frame, cos_bound)
     assert dof > 20 and p_value > ALPHA, f"chi-square p = {p_value:.2e} with {dof} degrees of freedom"
 
 
-def cell_test(wi, dirs, cell, density, d_omega, frame, cos_bound):
+def cell_test(wi, cell, density, d_omega, frame, cos_bound):
     """Chi-square of the draws `wi` over the cells that lie wholly on the light and where its
     density is smooth (within a factor 1.5), where 32 x 32 points integrate it well; every
     other draw (edge cells, hidden points) goes to one pooled bin."""
@@ -189,7 +189,7 @@ def test_a_wrong_density_is_caught():
     off_axis = (1.0 - dirs @ (axis / np.linalg.norm(axis))) / (1.0 - cos_bound)
     density = light_pdf_along(flat, p, dirs, 0.0) * (1.0 + 0.5 * off_axis)
     density /= np.sum(density) * d_omega
-    assert cell_test(wi, dirs, cell, density, d_omega, frame, cos_bound)[0] < ALPHA
+    assert cell_test(wi, cell, density, d_omega, frame, cos_bound)[0] < ALPHA
 
 
 def test_lights_are_chosen_in_proportion_to_power():

@@ -58,7 +58,7 @@ def main() -> None:
 
         # The overhead of a chunk: submit, run nothing, return a 1x1 tile's sums.
         scene = client.submit(chunks.package_value, package, pure=False)
-        chunk = chunks.Chunk(chunks.Tile(0, 0, 1, 1), 0, 0, 0, frame.width, frame.seed, frame.max_depth, 1)
+        chunk = chunks.Chunk(chunks.Tile(0, 0, 1, 1), 0, 0, frame.width, frame.seed, frame.max_depth, 1)
         zero = np.zeros((1, 1, 3))
         client.gather([client.submit(chunks.render_chunk, scene, GENERAL, chunk, zero, zero, pure=False) for _ in range(10)])
         t0 = time.perf_counter()

@@ -21,16 +21,21 @@ import numba
 _configured = False
 
 
-def _cache_dir() -> Path:
+def source_version() -> str:
+    """A name for the renderer's compiled code: a hash of Numba's version and of every source
+    file of the renderer package (code, or constants compiled into it). It names the cache folder,
+    and a cluster's workers compare it with the client's."""
     here = Path(__file__).resolve().parent
-    # Every file with compiled code, or constants compiled into it.
-    sources = sorted(here.rglob("*.py"))
     digest = hashlib.sha256(numba.__version__.encode())
-    for path in sources:
+    for path in sorted(here.rglob("*.py")):
         digest.update(str(path.relative_to(here)).encode())
         digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _cache_dir() -> Path:
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "rt" / "numba"
-    return base / digest.hexdigest()[:16]
+    return base / source_version()
 
 
 def _writable(path: Path) -> bool:

@@ -84,7 +84,7 @@ def renderer_version() -> str:
     cache folder (jit_cache). A worker with other sources would render other bits: it refuses."""
     from renderer import jit_cache
 
-    return jit_cache._cache_dir().name
+    return jit_cache.source_version()
 
 
 def flat_digest(flat) -> str:
@@ -201,7 +201,6 @@ class Chunk:
     """One tile, one range of samples: what a worker is asked to render."""
 
     tile: Tile
-    round: int
     sample_start: int
     sample_count: int
     image_width: int

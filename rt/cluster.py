@@ -220,7 +220,7 @@ def render_on_cluster(
                                           budget_left(), width * height, threads, chunk_seconds)
             rounds.plan(size)
         start, count = rounds.range(r)
-        chunk = chunks.Chunk(tiles[i], r, start, count, width, seed, depth, estimator)
+        chunk = chunks.Chunk(tiles[i], start, count, width, seed, depth, estimator)
         total, total_sq = latest[i]
         future = client.submit(chunks.render_chunk, scene, features, chunk, total, total_sq, pure=False,
                                key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")

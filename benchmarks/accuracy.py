@@ -46,7 +46,7 @@ def study_scene(path, graph_small):
 
     ref = render(graph_small, samples=REF_SPP, seed=101)
     reference = ref.film.mean()
-    reference_var = np.maximum(ref.film.total_sq / ref.film.samples - reference**2, 0.0) / (ref.film.samples - 1)
+    reference_var = ref.film.mean_variance()
     ref_noise = estimate_noise(ref.film).relative_rms
     rows = []
     for spp in SPP_SWEEP:

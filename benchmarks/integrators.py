@@ -66,7 +66,7 @@ def reference(stem: str, graph, width: int, spp: int) -> tuple[np.ndarray, np.nd
     t0 = time.perf_counter()
     film = render(with_integrator(graph, "mis"), samples=spp, seed=9001).film
     mean = film.mean()
-    var = np.maximum(film.total_sq / film.samples - mean * mean, 0.0) / (film.samples - 1)
+    var = film.mean_variance()
     np.savez(path, mean=mean, var=var)
     print(f"  reference {stem}: {spp} spp in {time.perf_counter() - t0:.0f} s (cached in {path})", flush=True)
     return mean, var

@@ -37,6 +37,12 @@ class Film:
         """The image: linear radiance per pixel (h, w, 3)."""
         return self.total / max(self.samples, 1)
 
+    def mean_variance(self) -> np.ndarray:
+        """The variance of each pixel's mean (h, w, 3): the samples' unbiased variance (clamped
+        at 0 against rounding) over their number. Needs two samples or more."""
+        n = self.samples
+        return np.maximum(self.total_sq - self.total * (self.total / n), 0.0) / (n - 1) / n
+
 
 def to_srgb8(linear: np.ndarray) -> np.ndarray:
     """8-bit pixels as the books write them: gamma 2 (square root), clamped to [0, 0.999], x256."""
@@ -207,9 +213,7 @@ def estimate_noise(film: Film) -> NoiseEstimate:
     if n < 2:
         return NoiseEstimate(float("inf"), (0, 0), float("inf"), np.full((h, w), np.inf))
     mean = film.total / n
-    # Unbiased sample variance, then the variance of the mean of n samples.
-    var = np.maximum(film.total_sq - film.total * mean, 0.0) / (n - 1)
-    se2 = var / n
+    se2 = film.mean_variance()
     relative = relative_noise(film)
     error = np.sqrt(se2).mean(axis=2)
     y, x = np.unravel_index(int(np.argmax(error)), error.shape)

@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 import rt
 from rt.cli import app
+from tests.test_cli import write
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,9 +32,7 @@ shapes:
 
 
 def scene_file(tmp_path, text=SMALL, name="ball.yaml"):
-    path = tmp_path / name
-    path.write_text(text)
-    return path
+    return write(tmp_path, name, text)
 
 
 def test_validate_gives_every_diagnostic_with_its_place_without_raising(tmp_path):
@@ -149,3 +148,12 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch):
     namespace: dict = {}
     exec(compile(code, "README.md", "exec"), namespace)
     assert (tmp_path / "cornell.exr").exists() and (tmp_path / "cornell.png").exists()
+    # What the example says it gives: the last image 32 wide with its blue wall, the first one
+    # written as a finite 64 x 64 EXR, and the misspelt key refused.
+    from scenefmt.hdr_files import read_hdr
+
+    exr = read_hdr(tmp_path / "cornell.exr", 64 * 64)
+    assert exr.shape == (64, 64, 3) and np.isfinite(exr).all() and exr.mean() > 0
+    last = namespace["img"].array
+    assert last.shape == (32, 32, 3) and np.isfinite(last).all()
+    assert namespace["report"].ok is False

@@ -1,13 +1,12 @@
 """The messages of `rt render` (rt/render_job.py): budgets, noise targets, resumed states,
 empty scenes, the progress bar's last line and --explain, as a new user reads them."""
 
-from pathlib import Path
-
 import pytest
 from typer.testing import CliRunner
 
 from rt.cli import app
 from rt.render_job import budget_text, noise_reached
+from tests.test_cli import write
 
 runner = CliRunner()
 
@@ -19,12 +18,6 @@ shapes:
   - {type: sphere, center: [0, -100, 0], radius: 100, material: m}
   - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: m}
 """
-
-
-def write(tmp_path: Path, name: str, text: str) -> Path:
-    path = tmp_path / name
-    path.write_text(text)
-    return path
 
 
 def test_a_time_budget_names_its_unit():

@@ -12,7 +12,9 @@ imported only here, only when a cluster is asked for.
 
 from __future__ import annotations
 
+import logging
 import os
+import queue
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,11 +27,49 @@ from . import chunks
 CONNECT_SECONDS = 5.0  # to reach a scheduler given by address
 WORKERS_SECONDS = 60.0  # to wait for a first worker to join
 POLL_SECONDS = 0.2  # between checks of Ctrl-C and the time budget while chunks run
+WORKERS_POLL_SECONDS = 2.0  # between asks to the scheduler whether any worker is left, while none finishes
 MISSING = "rendering on a cluster needs dask.distributed: pip install 'rt-render[cluster]'"
 
 
 class ClusterError(RuntimeError):
-    """The cluster cannot be used or a chunk failed; the message is a sentence to show."""
+    """The cluster cannot be used or a chunk failed; the message is a sentence to show.
+
+    `partial`: for a failure once chunks were submitted, the RenderResult of the samples merged
+    before it (what `rt render` saves, as after a failed write); None before that."""
+
+    def __init__(self, message: str, partial=None):
+        super().__init__(message)
+        self.partial = partial
+
+
+class ClusterLost(ClusterError):
+    """The cluster itself went away in the middle of a render: its scheduler (or the connection
+    to it), or every worker. The message names the cluster rather than the scene."""
+
+
+class Finished:
+    """The futures that have finished, in the order they did, handed over by each future's own
+    callback. Waiting this way needs no default client, which `distributed.wait` looks up: the
+    clients made here are never the default one, so that a render never uses or replaces a
+    client its caller made (and two renders in one process never share one by accident)."""
+
+    def __init__(self):
+        self._queue: queue.Queue = queue.Queue()
+
+    def watch(self, future) -> None:
+        future.add_done_callback(self._queue.put)
+
+    def wait(self, timeout: float) -> list:
+        """Those finished since the last call, waiting up to `timeout` seconds for a first one."""
+        try:
+            done = [self._queue.get(timeout=timeout)]
+        except queue.Empty:
+            return []
+        while True:
+            try:
+                done.append(self._queue.get_nowait())
+            except queue.Empty:
+                return done
 
 
 def _distributed():
@@ -63,10 +103,20 @@ class Connection:
     def close(self) -> None:
         if not self.owned:
             return
+        # A client that lost its scheduler is still trying to reconnect: closing it cancels that,
+        # and distributed logs the cancellation with a traceback, after the render has said
+        # in one line what happened. Logging is held back for that moment only.
+        lost = self.client.status != "running"
+        held = logging.root.manager.disable
+        if lost:
+            logging.disable(logging.CRITICAL)
         try:
             self.client.close(timeout=10)
         except Exception:  # noqa: BLE001 - closing after a failure: nothing more to say
             pass
+        finally:
+            if lost:
+                logging.disable(held)
         if self.cluster is not None:
             try:
                 self.cluster.close(timeout=10)
@@ -90,8 +140,6 @@ def connect(spec, workers: Optional[int] = None) -> Connection:
     if not isinstance(spec, str):
         raise ClusterError(f"cluster={spec!r}: expected 'local', a scheduler address such as tcp://host:8786, or a dask Client")
     if spec == "local":
-        import logging
-
         count = workers or os.cpu_count() or 1
         cluster = distributed.LocalCluster(
             n_workers=count, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0",
@@ -185,6 +233,7 @@ def render_on_cluster(
         chunks.warm_tile_kernel(flat, features)
         stats.kernel_seconds = time.perf_counter() - started
 
+    address = client.scheduler.address  # named in the message if the scheduler goes away
     try:
         client.wait_for_workers(1, timeout=WORKERS_SECONDS)
     except (TimeoutError, OSError) as exc:
@@ -201,10 +250,12 @@ def render_on_cluster(
     merged = 0  # rounds merged into the film
     running: dict = {}  # future -> (tile index, round)
     busy: set = set()  # tiles with a chunk running (a tile's rounds form a chain: one at a time)
+    finished = Finished()
     cost = [0.0, 0]  # chunk seconds, pixel-samples: the measured speed
     render_start = time.perf_counter()
     last_noise = render_start
     stop_submitting = film.samples >= target
+    watch = WorkerWatch(client)
 
     def budget_left() -> Optional[float]:
         return None if time_budget is None else time_budget - (time.perf_counter() - render_start)
@@ -226,9 +277,37 @@ def render_on_cluster(
                                key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         running[future] = (i, r)
         busy.add(i)
+        finished.watch(future)
 
     def may_submit(i: int) -> bool:
         return not stop_submitting and done[i] < merged + chunks.LOOKAHEAD and i not in busy
+
+    def failure(message: str, lost: bool = False) -> ClusterError:
+        """The error that ends the render, holding the film merged so far (every whole round)."""
+        stats.seconds = time.perf_counter() - render_start
+        stats.noise = relative_noise(film)
+        kind = ClusterLost if lost else ClusterError
+        return kind(message, RenderResult(film, stats))
+
+    def gone() -> ClusterError:
+        return failure(f"the cluster's scheduler at {address} went away after {film.samples} of {target} samples per "
+                       f"pixel (the connection to it is lost)", lost=True)
+
+    def chunk_result(future) -> chunks.ChunkResult:
+        """A finished chunk's result; ClusterError for a chunk that failed, was lost or cancelled."""
+        if future.status == "finished":
+            try:
+                return future.result()
+            except Exception as exc:  # noqa: BLE001 - fetching it failed: the scheduler or a worker is gone
+                if client.status != "running":
+                    raise gone() from None
+                raise failure(f"a chunk's result could not be fetched from the cluster: {type(exc).__name__}: {exc}") from None
+        if client.status != "running":  # the client cancels every future when it loses the scheduler
+            raise gone()
+        if future.status == "error":  # a task Dask gave up on, as when its workers died too often
+            exc = future.exception()
+            raise failure(f"a chunk could not be rendered on the cluster: {type(exc).__name__}: {exc}")
+        raise failure(f"a chunk was {future.status} on the cluster before it finished")
 
     try:
         for i in range(len(tiles)):
@@ -243,19 +322,19 @@ def render_on_cluster(
             if left is not None and left <= 0 and film.samples > rounds.start:
                 stats.stop_reason = "time"
                 break
-            try:
-                finished, _ = distributed.wait(list(running), timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
-            except TimeoutError:  # none finished yet: look at Ctrl-C and the budget again
-                finished = ()
-            for future in finished:
+            ready = [f for f in finished.wait(POLL_SECONDS) if f in running]
+            if not ready:  # none finished: is anyone still there to finish them?
+                if client.status != "running":
+                    raise gone()
+                if watch.workerless_for() > WORKERS_SECONDS:
+                    raise failure(f"every worker left the cluster (the scheduler at {address}) after {film.samples} of "
+                                  f"{target} samples per pixel, and none joined within {WORKERS_SECONDS:g} s", lost=True)
+            for future in ready:
                 i, r = running.pop(future)
                 busy.discard(i)
-                try:
-                    result = future.result()
-                except Exception as exc:  # noqa: BLE001 - a lost task, cancelled by the scheduler, ...
-                    raise ClusterError(f"a chunk could not be rendered on the cluster: {type(exc).__name__}: {exc}") from None
+                result = chunk_result(future)
                 if result.error is not None:
-                    raise ClusterError(result.error)
+                    raise failure(result.error)
                 latest[i] = (result.total, result.total_sq)
                 ahead[i][r] = result
                 done[i] = r + 1
@@ -289,11 +368,44 @@ def render_on_cluster(
             for i in range(len(tiles)):
                 if may_submit(i):
                     submit(i)
+    except ClusterError:
+        raise
+    except Exception as exc:
+        # Submitting or asking the scheduler failed: a connection that broke (an OSError, as
+        # distributed's CommClosedError is) or a client that lost the scheduler is said, with the
+        # merged samples; anything else is a bug of ours and keeps its traceback.
+        if client.status != "running" or isinstance(exc, OSError):
+            raise gone() from None
+        raise
     finally:
-        # Cancel what is still running (a budget, Ctrl-C, a failure): the film keeps every merged round.
-        if running:
-            client.cancel(list(running), force=True)
-        client.cancel([scene], force=True)
+        # Cancel what is still running (a budget, Ctrl-C, a failure): the film keeps every merged
+        # round. A scheduler that is gone has nothing to cancel, and is not waited for.
+        if client.status == "running":
+            try:
+                client.cancel([*running, scene], force=True)
+            except Exception:  # noqa: BLE001 - it went away just now: nothing is left to cancel
+                pass
     stats.seconds = time.perf_counter() - render_start
     stats.noise = relative_noise(film)
     return RenderResult(film, stats)
+
+
+class WorkerWatch:
+    """How long the cluster has had no worker at all, asked of the scheduler at most every
+    WORKERS_POLL_SECONDS (only while no chunk finishes). A worker that dies is replaced by its
+    nanny, or its chunks go to the others; with none left, chunks would wait for ever."""
+
+    def __init__(self, client):
+        self.client = client
+        self.asked = time.monotonic()
+        self.since: Optional[float] = None  # when it was first seen without workers
+
+    def workerless_for(self) -> float:
+        now = time.monotonic()
+        if now - self.asked >= WORKERS_POLL_SECONDS:
+            self.asked = now
+            if self.client.nthreads():
+                self.since = None
+            elif self.since is None:
+                self.since = now
+        return 0.0 if self.since is None else now - self.since

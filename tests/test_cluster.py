@@ -38,10 +38,12 @@ WIDTH = 16
 
 @pytest.fixture(scope="module")
 def client():
+    # Not the default client: a render must use the client it is given and never look one up,
+    # as `rt render --cluster` has none (tests/test_cluster_cli.py runs that in fresh processes).
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
-        with Client(cluster) as c:
+        with Client(cluster, set_as_default=False) as c:
             yield c
 
 

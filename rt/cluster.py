@@ -216,6 +216,8 @@ def render_on_cluster(
     from renderer.render import RenderResult, RenderStats, report_progress
     from renderer.variants import is_compiled
 
+    if client.status != "running":  # it lost its scheduler during an earlier scene of a batch
+        raise ClusterLost("the cluster's scheduler went away during an earlier render: nothing more can run on it")
     width, height = frame.width, frame.height
     target = samples if samples is not None else frame.samples
     depth = max_depth if max_depth is not None else frame.max_depth
@@ -236,8 +238,12 @@ def render_on_cluster(
     address = client.scheduler.address  # named in the message if the scheduler goes away
     try:
         client.wait_for_workers(1, timeout=WORKERS_SECONDS)
-    except (TimeoutError, OSError) as exc:
-        raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - said in words: a timeout, or a scheduler that went away
+        if client.status == "running" and isinstance(exc, TimeoutError):  # (a TimeoutError is an OSError)
+            raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
+        if client.status != "running" or isinstance(exc, OSError):
+            raise ClusterLost(f"the cluster's scheduler at {address} went away before the render started") from None
+        raise
     threads = worker_threads(client.scheduler_info()["workers"]) or 1
     tiles = chunks.plan_tiles(width, height, threads)
     rounds = chunks.Rounds(film.samples)

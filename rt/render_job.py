@@ -393,6 +393,47 @@ def cluster_connection(spec: str):
     return connection
 
 
+def cluster_failure(opts: RenderOptions, scene: PreparedScene, exc) -> Stop:
+    """Say why a cluster render failed (an rt.cluster.ClusterError) and keep the samples merged before
+    it, as a failed write keeps them (rt/outputs.py): in --save-state if given, else rescued to
+    a temporary file. The scheduler or the workers going away is the cluster's fault and is said
+    without the scene's name; a chunk that fails is said about the scene."""
+    from .cluster import ClusterLost
+
+    head = "error: " if isinstance(exc, ClusterLost) else f"error: {opts.scene}: "
+    partial = exc.partial
+    if partial is None or partial.film.samples == 0:
+        return fail(f"{head}{exc}" + ("; no samples were merged, so there is nothing to save" if partial is not None else ""))
+    return fail(f"{head}{exc}; {save_merged(opts, scene, partial.film)}")
+
+
+def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
+    """Save `film` as a state to resume from: in --save-state, else (or if that fails) where
+    outputs.rescue finds room. Where it went, as the end of an error line."""
+    from renderer.state import RenderKey, save_state, scene_fingerprint
+    from scenefmt.files import describe_os_error
+    from scenefmt.writing import dumps
+
+    from .outputs import rescue
+
+    fingerprint = scene.fingerprint or scene_fingerprint(dumps(scene.loaded.scene, "json"))
+    frame = scene.frame
+    key = RenderKey(fingerprint, frame.width, frame.height, opts.max_depth if opts.max_depth is not None else frame.max_depth,
+                    opts.seed if opts.seed is not None else frame.seed, frame.integrator)
+    problem = ""
+    if opts.save_state is not None:
+        try:
+            save_state(opts.save_state, film, key)
+            return f"the {film.samples} samples per pixel merged are saved in {opts.save_state} (continue with --resume {opts.save_state})"
+        except OSError as exc:
+            problem = f"{opts.save_state} cannot be written ({describe_os_error(exc)}), so "
+    rescued = rescue(film, key, "stdin" if opts.from_stdin else Path(str(opts.scene)).stem)
+    if not rescued:
+        return f"{problem}no folder could hold a copy of the {film.samples} samples per pixel merged"
+    return (f"{problem}the {film.samples} samples per pixel merged are saved in {' and '.join(str(p) for p in rescued)} "
+            f"(continue with --resume {rescued[0]})")
+
+
 def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, connection=None) -> None:
     """Render a prepared scene and write its images, on the cluster of `connection` if given
     (rt.cluster.Connection). Raises Stop for any end but success."""
@@ -459,7 +500,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     except ValueError as exc:
         failure = str(exc)
     except ClusterError as exc:
-        failure = str(exc)
+        if connection is not None and connection.client.status != "running":
+            connection.close()  # now: a client left trying to reconnect would log its failure later
+        raise cluster_failure(opts, scene, exc)
     else:
         failure = None
     finally:

@@ -307,7 +307,8 @@ def render_on_cluster(
             except Exception as exc:  # noqa: BLE001 - fetching it failed: the scheduler or a worker is gone
                 if client.status != "running":
                     raise gone() from None
-                raise failure(f"a chunk's result could not be fetched from the cluster: {type(exc).__name__}: {exc}") from None
+                fetch = f"a chunk's result could not be fetched from the cluster: {type(exc).__name__}: {exc}"
+                raise failure(fetch) from None
         if client.status != "running":  # the client cancels every future when it loses the scheduler
             raise gone()
         if future.status == "error":  # a task Dask gave up on, as when its workers died too often

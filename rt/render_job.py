@@ -403,7 +403,8 @@ def cluster_failure(opts: RenderOptions, scene: PreparedScene, exc) -> Stop:
     head = "error: " if isinstance(exc, ClusterLost) else f"error: {opts.scene}: "
     partial = exc.partial
     if partial is None or partial.film.samples == 0:
-        return fail(f"{head}{exc}" + ("; no samples were merged, so there is nothing to save" if partial is not None else ""))
+        nothing = "; no samples were merged, so there is nothing to save" if partial is not None else ""
+        return fail(f"{head}{exc}{nothing}")
     return fail(f"{head}{exc}; {save_merged(opts, scene, partial.film)}")
 
 
@@ -424,7 +425,8 @@ def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
     if opts.save_state is not None:
         try:
             save_state(opts.save_state, film, key)
-            return f"the {film.samples} samples per pixel merged are saved in {opts.save_state} (continue with --resume {opts.save_state})"
+            return (f"the {film.samples} samples per pixel merged are saved in {opts.save_state} "
+                    f"(continue with --resume {opts.save_state})")
         except OSError as exc:
             problem = f"{opts.save_state} cannot be written ({describe_os_error(exc)}), so "
     rescued = rescue(film, key, "stdin" if opts.from_stdin else Path(str(opts.scene)).stem)

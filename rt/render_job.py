@@ -43,6 +43,7 @@ class RenderOptions:
     exposure: Optional[float] = None  # --exposure: stops applied to the PNG only
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
+    allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
 
     @property
     def from_stdin(self) -> bool:
@@ -269,7 +270,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     try:
         with recording_reads() as reads:  # the files a cluster's workers need
-            loaded = load_source(opts.scene, opts.overrides, opts.syntax)
+            loaded = load_source(opts.scene, opts.overrides, opts.syntax, opts.allow_paths)
             graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:

@@ -24,6 +24,7 @@ from typing import Optional
 
 import numpy as np
 
+from .diagnostics import quote_key, quote_text  # never a line of the file: it may be anything
 from .files import FileProblem, open_regular_file, read_regular_file
 
 # Largest mesh file read (a scene's memory estimate also counts its triangles).
@@ -300,7 +301,7 @@ def _obj_slow(data: bytes) -> MeshData:
             try:
                 nums = [float(x) for x in text[:need]]
             except ValueError:
-                raise MeshProblem(f"'{key.decode()}' expects numbers, found {' '.join(text[:need])!r}", at) from None
+                raise MeshProblem(f"'{key.decode()}' expects numbers: not all of its first {need} values are", at) from None
             if not all(np.isfinite(nums)):
                 raise MeshProblem(f"'{key.decode()}' has a NaN or infinite value", at)
             {b"v": v, b"vt": vt, b"vn": vn}[key].append(nums)
@@ -311,7 +312,7 @@ def _obj_slow(data: bytes) -> MeshData:
             for word in text:
                 parts = word.split("/")
                 if len(parts) > 3 or parts[0] == "":
-                    raise MeshProblem(f"a face corner must be v, v/vt, v//vn or v/vt/vn, found {word!r}", at)
+                    raise MeshProblem(f"a face corner must be v, v/vt, v//vn or v/vt/vn, found {quote_text(word)}", at)
                 ids = []
                 for part, table, what in zip(parts, (v, vt, vn), ("vertex", "texture coordinate", "normal")):
                     if part == "":
@@ -320,7 +321,7 @@ def _obj_slow(data: bytes) -> MeshData:
                     try:
                         i = int(part)
                     except ValueError:
-                        raise MeshProblem(f"a face corner must be whole numbers, found {word!r}", at) from None
+                        raise MeshProblem(f"a face corner must be whole numbers, found {quote_text(word)}", at) from None
                     j = i - 1 if i > 0 else len(table) + i
                     if i == 0 or not 0 <= j < len(table):
                         raise MeshProblem(f"{what} index {i} is out of range: {len(table)} defined before this line", at)
@@ -332,7 +333,7 @@ def _obj_slow(data: bytes) -> MeshData:
         elif key.startswith(b"#") or key in _OBJ_IGNORED:
             continue
         else:
-            raise MeshProblem(f"unknown OBJ statement {key.decode('ascii', 'replace')!r}", at)
+            raise MeshProblem(f"unknown OBJ statement {quote_key(key.decode('ascii', 'replace'))}", at)
     vertices = np.array(v, np.float64).reshape(-1, 3)
     if not corners:
         return MeshData(vertices, np.zeros((0, 3), np.int64))
@@ -378,9 +379,9 @@ def _ply_header(fh) -> tuple[str, list[tuple[str, int, list]]]:
         elif words[0] == "property" and elements and len(words) >= 3:
             elements[-1][2].append((words[-1], tuple(words[1:-1])))
         else:
-            raise MeshProblem(f"PLY header line {text!r} is not understood")
+            raise MeshProblem(f"PLY header line {lines.index(text) + 1} is not understood")
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise MeshProblem(f"PLY format {fmt!r} is not ascii, binary_little_endian or binary_big_endian")
+        raise MeshProblem(f"PLY format {quote_key(fmt) if fmt else '(none)'} is not ascii, binary_little_endian or binary_big_endian")
     return fmt, elements
 
 
@@ -407,6 +408,17 @@ def _sizes_say_triangles(fh, elements, size: int, face_prop: str) -> bool:
                 return False
         expected += count * each
     return expected == size
+
+
+def _ply_where(exc) -> str:
+    """' (element 'face', row 3, property 'x')': where plyfile stopped, as far as it says."""
+    parts = []
+    for word, attribute in (("element", "element"), ("row", "row"), ("property", "prop")):
+        value = getattr(exc, attribute, None)
+        if value is not None:
+            value = getattr(value, "name", value)
+            parts.append(f"{word} {value}" if isinstance(value, int) else f"{word} {quote_key(value)}")
+    return f" ({', '.join(parts)})" if parts else ""
 
 
 def read_ply(path) -> MeshData:
@@ -436,8 +448,10 @@ def read_ply(path) -> MeshData:
             fh.seek(0)
             ply = PlyData.read(fh, known_list_len={"face": {face_prop: 3}}) if triangles else PlyData.read(fh)
             faces = ply["face"][face_prop]
-    except (PlyParseError, ValueError, EOFError) as exc:
-        raise MeshProblem(f"the PLY file does not parse: {exc}") from None
+    except PlyParseError as exc:  # where it failed (element, row, property), never the text there
+        raise MeshProblem("the PLY file does not parse" + _ply_where(exc)) from None
+    except (ValueError, EOFError):
+        raise MeshProblem("the PLY file does not parse (a value is not what its header declares, or the file ends early)") from None
     vert = ply["vertex"].data
     fields = vert.dtype.names
     for axis in "xyz":

@@ -278,6 +278,11 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise Stop(1)
     except ValueError as exc:  # input the format cannot check, such as an image that does not decode
         raise fail(f"error: {opts.scene}: {exc}")
+    from .outputs import input_problem  # now that the files it reads are known, before any rendering
+
+    problem = input_problem(opts, reads)
+    if problem:
+        raise fail(problem)
     for diag in loaded.warnings:  # as `rt validate` prints them: an empty scene renders, with a word
         say(str(diag), err=True)
     if opts.explain:
@@ -520,6 +525,10 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
         hdr_suffix = "." + str(opts.hdr).lower().lstrip(".")
         if hdr_suffix not in (".exr", ".pfm"):
             raise fail(f"error: --hdr {opts.hdr}: with several scenes, give the format only: --hdr exr or --hdr pfm")
+    from .outputs import file_key
+
+    # An image may not replace a scene of the batch: one rendered earlier would be lost, a later one changed.
+    scene_files = {file_key(scene): scene for scene in scenes if str(scene) != "-"}
     out = []
     seen: dict[str, Path] = {}
     for scene in scenes:
@@ -530,6 +539,10 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
             raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
         seen[key] = scene
         hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
+        for image in (png, hdr):
+            if image is not None and file_key(image) in scene_files:
+                raise fail(f"error: the image {image} of {scene} is the scene file {scene_files[file_key(image)]} of this batch: "
+                           "rendering would overwrite it; write the images elsewhere with -o DIR")
         out.append(dataclasses.replace(opts, scene=Path(scene), output=png, hdr=hdr))
     return out
 

@@ -24,7 +24,7 @@ from typing import Optional
 
 import numpy as np
 
-from .diagnostics import quote_key, quote_text  # never a line of the file: it may be anything
+from .diagnostics import did_you_mean, key_shown, quote_key, quote_text  # never a line of the file: it may be anything
 from .files import FileProblem, open_regular_file, read_regular_file
 
 # Largest mesh file read (a scene's memory estimate also counts its triangles).
@@ -333,7 +333,7 @@ def _obj_slow(data: bytes) -> MeshData:
         elif key.startswith(b"#") or key in _OBJ_IGNORED:
             continue
         else:
-            raise MeshProblem(f"unknown OBJ statement {quote_key(key.decode('ascii', 'replace'))}", at)
+            raise MeshProblem(f"unknown OBJ statement {_statement(key)}", at)
     vertices = np.array(v, np.float64).reshape(-1, 3)
     if not corners:
         return MeshData(vertices, np.zeros((0, 3), np.int64))
@@ -344,6 +344,16 @@ def _obj_slow(data: bytes) -> MeshData:
         columns.append(np.array([c[k] for c in corners], np.int64) if all(have) else None)
     return _obj_assemble(vertices, np.array(vt, np.float64).reshape(-1, 2), np.array(vn, np.float64).reshape(-1, 3),
                          columns, np.array(counts, np.int64))
+
+
+def _statement(key: bytes) -> str:
+    """An unknown OBJ keyword as a message may show it: quoted only when it is a near miss of a
+    known one (`vx`, `usemtl2`); any other word may be a line of a file that is no OBJ at all."""
+    word = key.decode("ascii", "replace")
+    known = [k.decode() for k in _OBJ_IGNORED] + ["v", "vn", "vt", "f"]
+    if did_you_mean(word, known) and key_shown(word):
+        return f"'{word}'{did_you_mean(word, known)}"
+    return f"(not shown: a word of {len(word)} characters)"
 
 
 # --- PLY --------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ from typing import Any
 
 from .diagnostics import Diagnostic, SceneError, did_you_mean, quote_key
 from .files import FileProblem, outside_problem, path_problem, read_regular_file
-from .loading import MAX_FILE_BYTES, SourceDocument, parse_bytes
+from .loading import MAX_FILE_BYTES, STDIN_NAME, SourceDocument, parse_bytes
 
 MAX_INCLUDE_DEPTH = 16
 MAX_INCLUDED_FILES = 256
@@ -244,7 +244,10 @@ def resolve_includes(doc: SourceDocument) -> SourceDocument:
             real = os.path.realpath(doc.file)
         except (OSError, ValueError):
             real = None
-    problem = not_a_scene(doc.data, SCENE_KEYS)
+    # Data handed over from Python ("<dict>", "<string>") cannot be someone else's file: its keys
+    # are reported one by one. A file, or standard input, may be anything.
+    from_file = not doc.file.startswith("<") or doc.file == STDIN_NAME
+    problem = not_a_scene(doc.data, SCENE_KEYS) if from_file else None
     if problem:
         # The main file's line 1 is not shown either: the user may have named the wrong file.
         raise SceneError([Diagnostic(doc.file, 1, 1, (), f"is not a scene file: {problem}", quote_source=False)])

@@ -329,7 +329,7 @@ class _Resolver:
             reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
             self.error(path, f"image file {file!r}: {reason}")
             return None
-        outside = outside_problem(resolved)
+        outside = outside_problem(self.doc.base_dir_of(path) / file)  # as named: the message says if a link leads out
         if outside:
             self.error(path, f"image file '{file}' is {outside}")
             return None
@@ -513,7 +513,7 @@ class _Resolver:
                 reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
                 self.error(where, f"{name}: {reason}")
                 return None
-            outside = outside_problem(resolved)
+            outside = outside_problem(base / model.file)
             if outside:
                 self.error(where, f"{name} is {outside}")
                 return None

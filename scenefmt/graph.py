@@ -15,7 +15,7 @@ from typing import Optional, Union
 
 from . import affine, bounds
 from .affine import Affine
-from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
+from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path, quote_key
 from .files import FileProblem, describe_os_error, open_regular_file, outside_problem, path_problem, record_read
 from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
 from .loading import SourceDocument
@@ -255,7 +255,7 @@ class _Resolver:
         hint = did_you_mean(name, defined)
         if not hint:
             hint = f"; defined {section}: {', '.join(sorted(defined))}" if defined else f"; the scene defines no {section}"
-        self.error(path, f"undefined {kind} '{name}'{hint}")
+        self.error(path, f"undefined {kind} {quote_key(name)}{hint}")
 
     # --- textures ------------------------------------------------------------------------------
 

@@ -255,7 +255,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
             raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
-    from .outputs import output_problem  # every output is checked before rendering
+    from .outputs import input_problem, output_problem  # every output is checked before rendering
 
     problem = output_problem(opts)
     if problem:
@@ -271,6 +271,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     try:
         with recording_reads() as reads:  # the files a cluster's workers need
             loaded = load_source(opts.scene, opts.overrides, opts.syntax, opts.allow_paths)
+            # Every input is known once the scene is read: check the outputs before any texture is decoded.
+            problem = input_problem(opts, reads)
+            if problem:
+                raise fail(problem)
             graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
@@ -278,11 +282,6 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise Stop(1)
     except ValueError as exc:  # input the format cannot check, such as an image that does not decode
         raise fail(f"error: {opts.scene}: {exc}")
-    from .outputs import input_problem  # now that the files it reads are known, before any rendering
-
-    problem = input_problem(opts, reads)
-    if problem:
-        raise fail(problem)
     for diag in loaded.warnings:  # as `rt validate` prints them: an empty scene renders, with a word
         say(str(diag), err=True)
     if opts.explain:

@@ -92,7 +92,8 @@ def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
     except FileProblem as exc:
         raise ValueError(f"{path}: {exc}") from None
     except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
-        raise ValueError(f"{path}: cannot read it as an image ({exc})") from None
+        # Not Pillow's words: they may quote the file (a PPM's header token); the kind of failure only.
+        raise ValueError(f"{path}: cannot read it as an image (Pillow could not decode it: {type(exc).__name__})") from None
     table = np.arange(256, dtype=np.float64) / 255.0
     if colorspace == "srgb":
         table = srgb_to_linear(table)

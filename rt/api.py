@@ -44,15 +44,19 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> "LoadedScene":
+def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None,
+         allow_paths: Iterable[Union[str, Path]] = ()) -> "LoadedScene":
     """The checked scene: `.scene` (the pydantic models), `.graph` (names resolved) and `.warnings`.
 
     `scene` is a file name (YAML or JSON), a `scenefmt` `Scene` model, or a dict of the file's
-    data; `overrides` are `--set` arguments (`"image.width=64"`). Raises `rt.SceneError`, whose
-    `.diagnostics` list every problem with its file, line, column and key path.
+    data; `overrides` are `--set` arguments (`"image.width=64"`). The files a scene names
+    (includes, textures, meshes) are read only from the scene file's folder (the current folder
+    for a dict or a model) and the folders in `allow_paths`, as `rt render --allow-path`. Raises
+    `rt.SceneError`, whose `.diagnostics` list every problem with its file, line, column and key path.
     """
+    from scenefmt.files import reading_within
     from scenefmt.loading import SourceDocument
-    from scenefmt.validation import LoadedScene, check_document, compose
+    from scenefmt.validation import LoadedScene, allowed_folders, check_document, compose
     from scenefmt.validation import load as load_file
 
     if isinstance(scene, LoadedScene):
@@ -60,7 +64,7 @@ def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] 
             raise ValueError("overrides apply to a scene file, a model or a dict, not to a scene loaded already")
         return scene
     if isinstance(scene, (str, Path)):
-        return load_file(scene, overrides, syntax)
+        return load_file(scene, overrides, syntax, allow_paths)
     from pydantic import BaseModel
 
     if isinstance(scene, BaseModel):
@@ -72,7 +76,8 @@ def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] 
     else:
         raise TypeError(f"expected a scene file name, a scenefmt Scene or a dict, not {type(scene).__name__}")
     # Relative file names in it (textures, meshes, includes) resolve from the current folder.
-    return check_document(compose(SourceDocument(DICT_NAME, data, base_dir=Path.cwd()), overrides))
+    with reading_within(allowed_folders(Path.cwd(), allow_paths)):
+        return check_document(compose(SourceDocument(DICT_NAME, data, base_dir=Path.cwd()), overrides))
 
 
 @dataclass
@@ -92,13 +97,15 @@ class Validation:
         return "\n".join(lines) if lines else "valid"
 
 
-def validate(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> Validation:
+def validate(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] = None,
+             allow_paths: Iterable[Union[str, Path]] = ()) -> Validation:
     """Check a scene as `rt validate` does, without raising: the errors and warnings, each a
-    `Diagnostic` with `file`, `line`, `column`, `path` and `message` (and `str()` of the lot)."""
+    `Diagnostic` with `file`, `line`, `column`, `path` and `message` (and `str()` of the lot).
+    `allow_paths` as for `load`."""
     from scenefmt.diagnostics import SceneError
 
     try:
-        loaded = load(scene, overrides, syntax)
+        loaded = load(scene, overrides, syntax, allow_paths)
     except SceneError as exc:
         return Validation(errors=list(exc.diagnostics))
     return Validation(warnings=list(loaded.warnings), loaded=loaded)
@@ -233,6 +240,7 @@ def render(
     progress: Union[bool, Callable[["RenderStats"], None]] = False,
     should_stop: Optional[Callable[[], bool]] = None,
     cluster: Any = None,
+    allow_paths: Iterable[Union[str, Path]] = (),
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -241,7 +249,8 @@ def render(
     values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
     with `spp` then the cap; `overrides` are `--set` arguments; `progress=True` shows the
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
-    between passes and ends the render early with what is rendered.
+    between passes and ends the render early with what is rendered; `allow_paths`: folders besides
+    the scene file's own (the current folder for a dict) that the files it names may be read from.
 
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
@@ -276,7 +285,7 @@ def render(
     from scenefmt.files import recording_reads
 
     with recording_reads() as reads:  # the files a cluster's workers need
-        loaded = load(scene, overrides)
+        loaded = load(scene, overrides, allow_paths=allow_paths)
         graph, flat = flatten(loaded, width, integrator)
     frame = Frame.of(graph)
     target = sample_target(spp, frame, budget is not None or noise is not None)

@@ -177,7 +177,8 @@ def build(package: ScenePackage, features) -> _Built:
                 with open(dest, "wb") as fh:
                     fh.write(data)
             try:
-                loaded = load_source(Path(_rooted(root, package.main)), package.overrides, package.syntax)
+                # Every file the client read (it checked what the scene may read) is under root, and only those.
+                loaded = load_source(Path(_rooted(root, package.main)), package.overrides, package.syntax, allow_paths=[root])
                 _graph, flat = flatten(loaded, package.width, package.integrator)
             except SceneError as exc:
                 first = exc.diagnostics[0] if exc.diagnostics else exc

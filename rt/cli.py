@@ -81,6 +81,14 @@ _SET_OPTION = typer.Option(
 )
 
 
+_ALLOW_OPTION = typer.Option(
+    [], "--allow-path", metavar="DIR",
+    help="Also let the scene read files (includes, textures, environment maps, meshes) from this folder "
+    "(repeatable). By default a scene reads only files inside its own folder (the current folder for "
+    "standard input), symbolic links resolved.",
+)
+
+
 class Syntax(str, Enum):
     """The two syntaxes of a scene file, for --format."""
 
@@ -135,6 +143,7 @@ def validate(
     syntax: Optional[Syntax] = _FORMAT_OPTION,
     as_json: bool = typer.Option(False, "--json", help="Print machine-readable results (one JSON document)."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="Print only errors."),
+    allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Check scene files and summarise each valid one; exit 1 if any is invalid."""
     from scenefmt.diagnostics import SceneError
@@ -148,7 +157,7 @@ def validate(
     for path in files:
         shown = STDIN_NAME if str(path) == "-" else str(path)
         try:
-            loaded = load_source(path, overrides, syntax.value if syntax else None)
+            loaded = load_source(path, overrides, syntax.value if syntax else None, allow_paths)
         except SceneError as exc:
             failed = True
             results.append({"file": shown, "valid": False, "errors": [d.to_json() for d in exc.diagnostics], "warnings": []})
@@ -248,6 +257,7 @@ def render(
         "dask scheduler. The image is the same as without, bit for bit. Needs pip install 'rt-render[cluster]'; "
         "see docs/cluster.md.",
     ),
+    allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -260,7 +270,7 @@ def render(
         scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
-        syntax=syntax.value if syntax else None, cluster=cluster,
+        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
     )
     try:
         if len(scenes) == 1:
@@ -282,6 +292,7 @@ def watch(
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
     integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default) or path, as for rt render."),
+    allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
     from .watch import WatchOptions, main_say, serve
@@ -294,7 +305,8 @@ def watch(
     if integrator is not None and integrator not in INTEGRATORS:
         typer.echo(f"error: --integrator {integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}", err=True)
         raise typer.Exit(2)
-    opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides))
+    opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides),
+                        allow_paths=tuple(allow_paths))
     raise typer.Exit(serve(opts, host, port, main_say))
 
 

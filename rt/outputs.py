@@ -3,7 +3,10 @@
 `output_problem` runs before the scene is rendered: each output path (the image, --hdr,
 --noise-map, --save-state) must be a usable name, not a directory, in a folder that exists
 and where a file can be created (tried for real, with a temporary file that is removed at
-once: permissions, read-only file systems and quotas all answer the same way).
+once: permissions, read-only file systems and quotas all answer the same way), and no two may
+be the same file. `input_problem` runs once the scene is read, still before rendering: no output
+may be a file the render reads (the scene, an include, a texture, the environment map, a mesh,
+--resume), compared as files (`file_key`: links resolved, the same inode), not as names.
 
 `write_outputs` runs after: it writes the saved state first (the samples are what took the
 time), then the images. If a write still fails (the disk filled, the folder vanished), the
@@ -57,19 +60,56 @@ def path_problem(path: Path) -> Optional[str]:
     return None
 
 
+def file_key(path) -> tuple:
+    """What makes two names the same file: its device and inode where it exists (a symbolic or
+    hard link to it is the same file), else its path with every link resolved."""
+    real = os.path.realpath(os.fsdecode(path))
+    try:
+        info = os.stat(real)
+    except (OSError, ValueError):
+        return ("path", real)
+    return ("inode", info.st_dev, info.st_ino)
+
+
 def output_problem(opts: "RenderOptions") -> Optional[str]:
     """The first output that cannot be written, as an error line; None if all can."""
     from scenefmt.diagnostics import escape_control
 
-    seen: dict[str, str] = {}
+    seen: dict[tuple, tuple[str, Path]] = {}
     for what, path in _outputs(opts):
         problem = path_problem(path)
         if problem:
             return escape_control(f"error: {path}: {problem}")
-        key = os.path.abspath(path)
+        key = file_key(path)
         if key in seen:
-            return escape_control(f"error: {path}: {what} and {seen[key]} name the same file")
-        seen[key] = what
+            other, other_path = seen[key]
+            same = "" if os.path.abspath(path) == os.path.abspath(other_path) else f" ({other_path}, through a link)"
+            return escape_control(f"error: {path}: {what} and {other}{same} name the same file")
+        seen[key] = (what, path)
+    return None
+
+
+def input_problem(opts: "RenderOptions", reads: list) -> Optional[str]:
+    """An output that is a file the render reads, as an error line; None if none is. `reads`: every
+    file the load opened (scenefmt.files.recording_reads: the scene, its includes, textures,
+    environment map and meshes), and --resume, which only --save-state may name (continuing a
+    state in place is its use, and the state is written atomically)."""
+    from scenefmt.diagnostics import escape_control
+
+    main = None if opts.from_stdin else file_key(opts.scene)
+    inputs: dict[tuple, str] = {}
+    for path in reads:
+        inputs.setdefault(file_key(path), path)
+    for what, path in _outputs(opts):
+        key = file_key(path)
+        if key == main:
+            return escape_control(f"error: {what} {path} is the scene file {opts.scene} itself: rendering would overwrite it; "
+                                  "name the image with -o")
+        if key in inputs:
+            return escape_control(f"error: {what} {path} is {inputs[key]}, a file the scene reads: rendering would overwrite "
+                                  "it; choose another name")
+        if opts.resume is not None and what != "--save-state" and key == file_key(opts.resume):
+            return escape_control(f"error: {what} {path} is the state --resume {opts.resume} reads; choose another name")
     return None
 
 

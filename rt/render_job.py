@@ -43,6 +43,7 @@ class RenderOptions:
     exposure: Optional[float] = None  # --exposure: stops applied to the PNG only
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
+    allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
 
     @property
     def from_stdin(self) -> bool:
@@ -254,7 +255,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
             raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
-    from .outputs import output_problem  # every output is checked before rendering
+    from .outputs import input_problem, output_problem  # every output is checked before rendering
 
     problem = output_problem(opts)
     if problem:
@@ -269,7 +270,11 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
     try:
         with recording_reads() as reads:  # the files a cluster's workers need
-            loaded = load_source(opts.scene, opts.overrides, opts.syntax)
+            loaded = load_source(opts.scene, opts.overrides, opts.syntax, opts.allow_paths)
+            # Every input is known once the scene is read: check the outputs before any texture is decoded.
+            problem = input_problem(opts, reads)
+            if problem:
+                raise fail(problem)
             graph, flat = flatten(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
@@ -564,6 +569,10 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
         hdr_suffix = "." + str(opts.hdr).lower().lstrip(".")
         if hdr_suffix not in (".exr", ".pfm"):
             raise fail(f"error: --hdr {opts.hdr}: with several scenes, give the format only: --hdr exr or --hdr pfm")
+    from .outputs import file_key
+
+    # An image may not replace a scene of the batch: one rendered earlier would be lost, a later one changed.
+    scene_files = {file_key(scene): scene for scene in scenes if str(scene) != "-"}
     out = []
     seen: dict[str, Path] = {}
     for scene in scenes:
@@ -574,6 +583,10 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
             raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
         seen[key] = scene
         hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
+        for image in (png, hdr):
+            if image is not None and file_key(image) in scene_files:
+                raise fail(f"error: the image {image} of {scene} is the scene file {scene_files[file_key(image)]} of this batch: "
+                           "rendering would overwrite it; write the images elsewhere with -o DIR")
         out.append(dataclasses.replace(opts, scene=Path(scene), output=png, hdr=hdr))
     return out
 

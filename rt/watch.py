@@ -52,6 +52,7 @@ class WatchOptions:
     width: Optional[int] = None
     integrator: Optional[str] = None
     overrides: tuple[str, ...] = ()
+    allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be in
 
 
 def source_line(file: str, line: int) -> str:
@@ -80,7 +81,9 @@ def describe(diag) -> dict:
     out["path"] = escape_control(out["path"])
     out["file"] = escape_control(out["file"])
     out["text"] = str(diag)
-    out["source"] = source_line(diag.file, diag.line)
+    # The line is shown only from a file known to be a scene: never a line of a file the scene
+    # merely named (scenefmt.includes.not_a_scene), which may be anyone's secrets.
+    out["source"] = source_line(diag.file, diag.line) if diag.quote_source else ""
     return out
 
 
@@ -262,7 +265,7 @@ class Previewer:
         self.board.post("status", {"generation": generation, "text": "loading the scene"})
         with recording_reads() as reads:
             try:
-                loaded = load(self.opts.scene, self.opts.overrides)
+                loaded = load(self.opts.scene, self.opts.overrides, allow_paths=self.opts.allow_paths)
                 graph, flat = flatten(loaded, self.opts.width, self.opts.integrator)
             except SceneError as exc:
                 errors = [describe(d) for d in exc.diagnostics]

@@ -14,7 +14,7 @@ from typing import Any, Callable, Iterator, Union
 from pydantic import BaseModel, ValidationError
 from pydantic.fields import FieldInfo
 
-from .diagnostics import Diagnostic, did_you_mean
+from .diagnostics import Diagnostic, did_you_mean, path_part, quote_key, quote_text
 from .loading import SourceDocument
 from .transforms import STEP_KINDS
 
@@ -121,15 +121,28 @@ def _has_type_key(member: Any) -> bool:
 # Wording each kind of error: one handler per pydantic error type, looked up in _HANDLERS
 
 
-def _short(value: Any) -> str:
-    """A found value as the file spells it: `true`, `null`, `'text'`, `[1, 2]`."""
+def _scalar(value: Any) -> str:
     if value is True or value is False:
         return "true" if value else "false"
     if value is None:
         return "null"
+    if isinstance(value, str):
+        return quote_text(value)
+    return repr(value)
+
+
+def _short(value: Any) -> str:
+    """A found value as the file spells it, `true`, `null`, `'text'`, `[1, 2]`, as far as a
+    message may quote it (diagnostics.quote_text): a long or odd string is given by its length."""
     if isinstance(value, dict):
-        return "a mapping {" + ", ".join(str(k) for k in list(value)[:4]) + (", ..." if len(value) > 4 else "") + "}"
-    text = repr(value).replace("True", "true").replace("False", "false").replace("None", "null")
+        keys = [path_part(k) for k in list(value)[:4]]
+        return "a mapping {" + ", ".join(keys) + (", ..." if len(value) > 4 else "") + "}"
+    if isinstance(value, (list, tuple)):
+        if not all(v is None or isinstance(v, (bool, int, float)) for v in value):
+            return f"a list of {len(value)} item{'s' if len(value) != 1 else ''}"
+        text = "[" + ", ".join(_scalar(v) for v in value) + "]"
+    else:
+        text = _scalar(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -186,11 +199,11 @@ def _unknown_key(e: _Error) -> Diagnostic:
         hint = "; only closed shapes (sphere, moving_sphere, box) can hold an interior medium"
     elif not hint and allowed:
         hint = f"; expected one of: {', '.join(allowed)}"
-    return e.doc.diagnostic(e.path, f"unknown key '{key}'{hint}", of_key=True)
+    return e.doc.diagnostic(e.path, f"unknown key {quote_key(key)}{hint}", of_key=True)
 
 
 def _unknown_type_message(tag: Any, tags: list[str]) -> str:
-    return f"unknown type '{tag}'{did_you_mean(tag, tags)}" + (f" (expected one of: {', '.join(tags)})" if tags else "")
+    return f"unknown type {quote_key(tag)}{did_you_mean(tag, tags)}" + (f" (expected one of: {', '.join(tags)})" if tags else "")
 
 
 def _unknown_type(e: _Error) -> Diagnostic:
@@ -209,7 +222,7 @@ def _missing_type(e: _Error) -> Diagnostic:
 def _unknown_transform_step(e: _Error) -> Diagnostic:
     if isinstance(e.found, dict) and e.found:
         first = next(iter(e.found))
-        return e.doc.diagnostic(e.path, f"unknown transform step '{first}'{did_you_mean(first, STEP_KINDS)} ({e.msg})")
+        return e.doc.diagnostic(e.path, f"unknown transform step {quote_key(first)}{did_you_mean(first, STEP_KINDS)} ({e.msg})")
     return e.doc.diagnostic(e.path, f"{e.msg}, found {_short(e.found)}")
 
 

@@ -19,6 +19,10 @@ from pathlib import Path
 
 # The files opened through this module while `recording_reads` is active (in this thread).
 _reads: contextvars.ContextVar = contextvars.ContextVar("scenefmt_reads", default=None)
+# The folders files may be read from while `reading_within` is active (real paths); None: anywhere.
+_roots: contextvars.ContextVar = contextvars.ContextVar("scenefmt_roots", default=None)
+
+ALLOW_HINT = "to read it, allow its folder with --allow-path DIR (allow_paths=[...] in Python)"
 
 
 class FileProblem(Exception):
@@ -87,6 +91,42 @@ def record_read(path) -> None:
         log.append(os.path.abspath(os.fsdecode(path)))
 
 
+def real_folder(path) -> str:
+    """The folder `path` names, symbolic links resolved: what `reading_within` compares against."""
+    return os.path.realpath(os.fsdecode(path))
+
+
+@contextlib.contextmanager
+def reading_within(folders):
+    """Refuse, while inside, to open any file that does not resolve (after symbolic links) inside
+    one of `folders`: a scene downloaded from elsewhere may name `../../.ssh/id_rsa` or a link to
+    it, and what it names must not be read, let alone quoted. Nested uses replace the folders."""
+    roots = tuple(dict.fromkeys(real_folder(f) for f in folders))
+    token = _roots.set(roots)
+    try:
+        yield roots
+    finally:
+        _roots.reset(token)
+
+
+def outside_problem(path) -> str | None:
+    """Why `path` may not be read under `reading_within` (it resolves outside every allowed
+    folder), or None. Checked before a file is looked for, so nothing outside is even probed."""
+    roots = _roots.get()
+    if roots is None or path_problem(path):
+        return None
+    try:
+        real = os.path.realpath(os.fsdecode(path))
+    except (OSError, ValueError):
+        return None  # the open that follows says what is wrong with the name
+    for root in roots:
+        if real == root or real.startswith(root.rstrip(os.sep) + os.sep):
+            return None
+    shown = " or ".join(roots) if len(roots) <= 3 else f"{roots[0]} or {len(roots) - 1} other allowed folders"
+    through = f", through a symbolic link to {real}" if real != os.path.abspath(os.fsdecode(path)) else ""
+    return f"outside the folders this scene may read files from ({shown}){through}; {ALLOW_HINT}"
+
+
 def open_regular_file(path):
     """The regular file at `path` opened for binary reading (a file object); FileProblem otherwise."""
     fd = _open_regular(path)
@@ -94,7 +134,7 @@ def open_regular_file(path):
 
 
 def _open_regular(path) -> int:
-    problem = path_problem(path)
+    problem = path_problem(path) or outside_problem(path)
     if problem:
         raise FileProblem(problem)
     record_read(path)

@@ -15,8 +15,8 @@ from typing import Optional, Union
 
 from . import affine, bounds
 from .affine import Affine
-from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path
-from .files import FileProblem, describe_os_error, open_regular_file, path_problem, record_read
+from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path, quote_key
+from .files import FileProblem, describe_os_error, open_regular_file, outside_problem, path_problem, record_read
 from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
@@ -194,7 +194,8 @@ def _image_problem(path: Path) -> Optional[str]:
     except UnidentifiedImageError:
         return "is not a readable image (not a format Pillow can identify)"
     except (OSError, Image.DecompressionBombError, ValueError) as exc:
-        return f"is not a readable image ({exc})"
+        # Pillow's own words may quote the file's header (a PPM's first token): only their kind.
+        return f"is not a readable image (Pillow could not decode its header: {type(exc).__name__})"
     if width * height > MAX_TEXTURE_PIXELS:
         return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
     return None
@@ -254,7 +255,7 @@ class _Resolver:
         hint = did_you_mean(name, defined)
         if not hint:
             hint = f"; defined {section}: {', '.join(sorted(defined))}" if defined else f"; the scene defines no {section}"
-        self.error(path, f"undefined {kind} '{name}'{hint}")
+        self.error(path, f"undefined {kind} {quote_key(name)}{hint}")
 
     # --- textures ------------------------------------------------------------------------------
 
@@ -327,6 +328,10 @@ class _Resolver:
         except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
             reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
             self.error(path, f"image file {file!r}: {reason}")
+            return None
+        outside = outside_problem(self.doc.base_dir_of(path) / file)  # as named: the message says if a link leads out
+        if outside:
+            self.error(path, f"image file '{file}' is {outside}")
             return None
         if not exists:
             record_read(resolved)  # looked for: watched, so that creating it counts as a change
@@ -507,6 +512,10 @@ class _Resolver:
             except (OSError, RuntimeError, ValueError) as exc:
                 reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
                 self.error(where, f"{name}: {reason}")
+                return None
+            outside = outside_problem(base / model.file)
+            if outside:
+                self.error(where, f"{name} is {outside}")
                 return None
             if not exists:
                 record_read(resolved)  # looked for: watched, so that creating it counts as a change

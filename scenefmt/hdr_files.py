@@ -84,7 +84,7 @@ def _exr_file(raw: bytes, header_only: bool):
     try:
         return OpenEXR.File(io.BytesIO(raw), separate_channels=False, header_only=header_only)
     except (RuntimeError, ValueError, TypeError) as exc:
-        raise HdrProblem(f"is not a readable OpenEXR image ({exc})") from None
+        raise HdrProblem(f"is not a readable OpenEXR image (the OpenEXR library refused it: {type(exc).__name__})") from None
 
 
 def _exr_size(exr) -> tuple[int, int]:

@@ -20,9 +20,9 @@ import os
 from pathlib import Path
 from typing import Any
 
-from .diagnostics import Diagnostic, SceneError
-from .files import FileProblem, path_problem, read_regular_file
-from .loading import MAX_FILE_BYTES, SourceDocument, parse_bytes
+from .diagnostics import Diagnostic, SceneError, did_you_mean, quote_key
+from .files import FileProblem, outside_problem, path_problem, read_regular_file
+from .loading import MAX_FILE_BYTES, STDIN_NAME, SourceDocument, parse_bytes
 
 MAX_INCLUDE_DEPTH = 16
 MAX_INCLUDED_FILES = 256
@@ -47,8 +47,11 @@ class _Composer:
         if not isinstance(data, dict) or "include" not in data:
             return
         entries = data["include"]
+        if isinstance(entries, str) and entries:  # `include: file.yaml`, one file
+            self.include_one(doc, ("include",), entries, stack, depth)
+            return
         if not isinstance(entries, list):
-            return  # the model reports it: expected a list of file names
+            return  # the model reports it: expected a file name or a list of them
         for i, entry in enumerate(entries):
             if not isinstance(entry, str) or not entry:
                 continue  # the model reports it
@@ -63,6 +66,10 @@ class _Composer:
             error(f"included file {name!r}: {problem}")
             return
         path = doc.base_dir / name
+        outside = outside_problem(path)
+        if outside:  # before anything is looked up: a file outside is not even probed
+            error(f"included file '{name}' is {outside}")
+            return
         try:
             real = os.path.realpath(path)
         except (OSError, ValueError) as exc:
@@ -99,7 +106,14 @@ class _Composer:
         try:
             sub = parse_bytes(raw, shown, None, Path(real).parent)
         except SceneError as exc:
-            self.errors += [_with_note(d, note) for d in exc.diagnostics]
+            # Placed in the file, but its line is not shown (rt watch would): nothing says yet that
+            # the file is a scene rather than a credentials file that does not parse as YAML.
+            self.errors += [_with_note(d, note, quote_source=False) for d in exc.diagnostics]
+            return
+        problem = not_a_scene(sub.data, ALLOWED_IN_INCLUDED | SCENE_KEYS, strict=True, expected=ALLOWED_IN_INCLUDED)
+        if problem:
+            # One error, in the including file: nothing of a file that is no scene is quoted.
+            error(f"included file '{name}' is not a scene file: {problem}")
             return
         sub.note = note
         sub.problems = [_with_note(d, note) for d in sub.problems]
@@ -113,14 +127,13 @@ class _Composer:
         if data is None:
             return  # an empty file: nothing to merge
         if not isinstance(data, dict):
-            self.errors.append(sub.diagnostic((), "an included file must be a mapping of sections (materials, shapes, ...)"))
-            return
+            return  # include_one refused it (not_a_scene)
         for key in data:
             if key not in ALLOWED_IN_INCLUDED:
                 self.errors.append(
                     sub.diagnostic(
                         (key,),
-                        f"'{key}' cannot be given in an included file: only textures, materials, media, groups and "
+                        f"{quote_key(key)} cannot be given in an included file: only textures, materials, media, groups and "
                         "shapes are merged (and include); give it in the main file",
                         of_key=True,
                     )
@@ -177,8 +190,46 @@ def _size(path) -> int:
         return 0
 
 
-def _with_note(d: Diagnostic, note: str) -> Diagnostic:
-    return Diagnostic(d.file, d.line, d.column, d.path, d.message + note, d.severity)
+def _with_note(d: Diagnostic, note: str, quote_source: bool = True) -> Diagnostic:
+    return Diagnostic(d.file, d.line, d.column, d.path, d.message + note, d.severity, d.quote_source and quote_source)
+
+
+def _scene_keys() -> frozenset:
+    from .scene import Scene
+
+    return frozenset(Scene.model_fields)
+
+
+SCENE_KEYS = _scene_keys()
+
+
+def not_a_scene(data: Any, allowed: frozenset, strict: bool = False, expected: Any = None) -> str | None:
+    """Why a parsed document is clearly no scene file, in words that quote nothing of it; None if
+    it may be one. A scene is a mapping whose top-level keys are scene keys (`allowed`) or
+    misspellings of them; a file named where a scene is expected but holding anything else (a
+    list, a line of text, /etc/shadow read as YAML, someone's credentials) gets this one sentence,
+    never an error per key or line, since those would print its contents. `strict` (an included
+    file): any key that is neither is enough; else (the main file, the user's own) only when no
+    key is a scene key, or an unknown key is no identifier."""
+    expected = ", ".join(sorted(expected or allowed))
+    if data is None:
+        return None  # an empty file
+    if not isinstance(data, dict):
+        kind = "a list" if isinstance(data, list) else "a single value" if not isinstance(data, str) else "text"
+        return f"its top level is {kind}, not a mapping of the scene's keys ({expected})"
+    strangers = [k for k in data if k not in allowed and not did_you_mean(k, allowed)]
+    if not strangers:
+        return None
+    if not strict and len(strangers) < len(data) and not _looks_foreign(strangers):
+        return None  # a scene with a stray key: the model names it
+    return f"{len(strangers)} of its {len(data)} top-level keys are not scene keys (expected only {expected})"
+
+
+def _looks_foreign(keys: list) -> bool:
+    """Whether unknown keys look like another file's rather than a mistake in a scene: not identifiers."""
+    from .diagnostics import key_shown
+
+    return any(not key_shown(k) for k in keys)
 
 
 def resolve_includes(doc: SourceDocument) -> SourceDocument:
@@ -193,6 +244,13 @@ def resolve_includes(doc: SourceDocument) -> SourceDocument:
             real = os.path.realpath(doc.file)
         except (OSError, ValueError):
             real = None
+    # Data handed over from Python ("<dict>", "<string>") cannot be someone else's file: its keys
+    # are reported one by one. A file, or standard input, may be anything.
+    from_file = not doc.file.startswith("<") or doc.file == STDIN_NAME
+    problem = not_a_scene(doc.data, SCENE_KEYS) if from_file else None
+    if problem:
+        # The main file's line 1 is not shown either: the user may have named the wrong file.
+        raise SceneError([Diagnostic(doc.file, 1, 1, (), f"is not a scene file: {problem}", quote_source=False)])
     stack = [real] if real else []
     composer.read.update(stack)
     composer.include_all(doc, stack, 0)
@@ -203,6 +261,8 @@ def resolve_includes(doc: SourceDocument) -> SourceDocument:
 
 def included_keys(data: Any) -> list:
     """The file names a document includes, as written (for tools that list dependencies)."""
+    if isinstance(data, dict) and isinstance(data.get("include"), str):
+        return [data["include"]]
     if isinstance(data, dict) and isinstance(data.get("include"), list):
         return [e for e in data["include"] if isinstance(e, str)]
     return []

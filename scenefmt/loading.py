@@ -29,7 +29,7 @@ from yaml.reader import Reader
 from yaml.resolver import BaseResolver
 from yaml.scanner import Scanner
 
-from .diagnostics import Diagnostic, SceneError
+from .diagnostics import Diagnostic, SceneError, quote_key, quote_tag, quote_text  # what a message may quote
 from .files import FileProblem, read_regular_file, read_stream
 
 MAX_FILE_BYTES = 128 * 1024 * 1024
@@ -310,11 +310,11 @@ class _YamlConverter:
             return self.scalar(node, path)
         if isinstance(node, yaml.SequenceNode):
             if node.tag != "tag:yaml.org,2002:seq":
-                self.problem(node, path, f"the tag {node.tag!r} is not allowed in a scene file")
+                self.problem(node, path, f"the tag {quote_tag(node.tag)} is not allowed in a scene file")
             return [self.convert(item, path + (i,)) for i, item in enumerate(node.value)]
         if isinstance(node, yaml.MappingNode):
             if node.tag != "tag:yaml.org,2002:map":
-                self.problem(node, path, f"the tag {node.tag!r} is not allowed in a scene file")
+                self.problem(node, path, f"the tag {quote_tag(node.tag)} is not allowed in a scene file")
             out: dict[str, Any] = {}
             first_seen: dict[str, Position] = {}
             for key_node, value_node in node.value:
@@ -328,7 +328,7 @@ class _YamlConverter:
                 key_pos = _mark_position(key_node.start_mark)
                 if key in first_seen:
                     line, col = first_seen[key]
-                    self.problem(key_node, path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})")
+                    self.problem(key_node, path + (key,), f"duplicate key {quote_key(key)} (first given at line {line}, column {col})")
                     continue
                 first_seen[key] = key_pos
                 self.doc.keys[path + (key,)] = key_pos
@@ -356,7 +356,7 @@ class _YamlConverter:
                     return int(text[2:], 16)
                 return int(text, 10)
             except ValueError:
-                self.problem(node, path, f"{text!r} is not an integer")
+                self.problem(node, path, f"{quote_text(text)} is not an integer")
                 return text
         if tag == "tag:yaml.org,2002:float":
             low = text.lower()
@@ -367,9 +367,9 @@ class _YamlConverter:
             try:
                 return float(text)
             except ValueError:
-                self.problem(node, path, f"{text!r} is not a number")
+                self.problem(node, path, f"{quote_text(text)} is not a number")
                 return text
-        self.problem(node, path, f"the tag {tag!r} is not allowed in a scene file")
+        self.problem(node, path, f"the tag {quote_tag(tag)} is not allowed in a scene file")
         return text
 
 
@@ -529,7 +529,7 @@ class _JsonParser:
             if key in out:
                 line, col = self.doc.keys[path + (key,)]
                 self.problems.append(
-                    Diagnostic(self.doc.file, *self.where(key_at), path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})")
+                    Diagnostic(self.doc.file, *self.where(key_at), path + (key,), f"duplicate key {quote_key(key)} (first given at line {line}, column {col})")
                 )
                 saved = dict(self.doc.values)
                 _, i = self.value(i, path + ("<duplicate>",), depth + 1)

@@ -24,6 +24,7 @@ from typing import Optional
 
 import numpy as np
 
+from .diagnostics import did_you_mean, key_shown, quote_key, quote_text  # never a line of the file: it may be anything
 from .files import FileProblem, open_regular_file, read_regular_file
 
 # Largest mesh file read (a scene's memory estimate also counts its triangles).
@@ -300,7 +301,7 @@ def _obj_slow(data: bytes) -> MeshData:
             try:
                 nums = [float(x) for x in text[:need]]
             except ValueError:
-                raise MeshProblem(f"'{key.decode()}' expects numbers, found {' '.join(text[:need])!r}", at) from None
+                raise MeshProblem(f"'{key.decode()}' expects numbers: not all of its first {need} values are", at) from None
             if not all(np.isfinite(nums)):
                 raise MeshProblem(f"'{key.decode()}' has a NaN or infinite value", at)
             {b"v": v, b"vt": vt, b"vn": vn}[key].append(nums)
@@ -311,7 +312,7 @@ def _obj_slow(data: bytes) -> MeshData:
             for word in text:
                 parts = word.split("/")
                 if len(parts) > 3 or parts[0] == "":
-                    raise MeshProblem(f"a face corner must be v, v/vt, v//vn or v/vt/vn, found {word!r}", at)
+                    raise MeshProblem(f"a face corner must be v, v/vt, v//vn or v/vt/vn, found {quote_text(word)}", at)
                 ids = []
                 for part, table, what in zip(parts, (v, vt, vn), ("vertex", "texture coordinate", "normal")):
                     if part == "":
@@ -320,7 +321,7 @@ def _obj_slow(data: bytes) -> MeshData:
                     try:
                         i = int(part)
                     except ValueError:
-                        raise MeshProblem(f"a face corner must be whole numbers, found {word!r}", at) from None
+                        raise MeshProblem(f"a face corner must be whole numbers, found {quote_text(word)}", at) from None
                     j = i - 1 if i > 0 else len(table) + i
                     if i == 0 or not 0 <= j < len(table):
                         raise MeshProblem(f"{what} index {i} is out of range: {len(table)} defined before this line", at)
@@ -332,7 +333,7 @@ def _obj_slow(data: bytes) -> MeshData:
         elif key.startswith(b"#") or key in _OBJ_IGNORED:
             continue
         else:
-            raise MeshProblem(f"unknown OBJ statement {key.decode('ascii', 'replace')!r}", at)
+            raise MeshProblem(f"unknown OBJ statement {_statement(key)}", at)
     vertices = np.array(v, np.float64).reshape(-1, 3)
     if not corners:
         return MeshData(vertices, np.zeros((0, 3), np.int64))
@@ -343,6 +344,16 @@ def _obj_slow(data: bytes) -> MeshData:
         columns.append(np.array([c[k] for c in corners], np.int64) if all(have) else None)
     return _obj_assemble(vertices, np.array(vt, np.float64).reshape(-1, 2), np.array(vn, np.float64).reshape(-1, 3),
                          columns, np.array(counts, np.int64))
+
+
+def _statement(key: bytes) -> str:
+    """An unknown OBJ keyword as a message may show it: quoted only when it is a near miss of a
+    known one (`vx`, `usemtl2`); any other word may be a line of a file that is no OBJ at all."""
+    word = key.decode("ascii", "replace")
+    known = [k.decode() for k in _OBJ_IGNORED] + ["v", "vn", "vt", "f"]
+    if did_you_mean(word, known) and key_shown(word):
+        return f"'{word}'{did_you_mean(word, known)}"
+    return f"(not shown: a word of {len(word)} characters)"
 
 
 # --- PLY --------------------------------------------------------------------------------------
@@ -378,9 +389,9 @@ def _ply_header(fh) -> tuple[str, list[tuple[str, int, list]]]:
         elif words[0] == "property" and elements and len(words) >= 3:
             elements[-1][2].append((words[-1], tuple(words[1:-1])))
         else:
-            raise MeshProblem(f"PLY header line {text!r} is not understood")
+            raise MeshProblem(f"PLY header line {lines.index(text) + 1} is not understood")
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise MeshProblem(f"PLY format {fmt!r} is not ascii, binary_little_endian or binary_big_endian")
+        raise MeshProblem(f"PLY format {quote_key(fmt) if fmt else '(none)'} is not ascii, binary_little_endian or binary_big_endian")
     return fmt, elements
 
 
@@ -407,6 +418,17 @@ def _sizes_say_triangles(fh, elements, size: int, face_prop: str) -> bool:
                 return False
         expected += count * each
     return expected == size
+
+
+def _ply_where(exc) -> str:
+    """' (element 'face', row 3, property 'x')': where plyfile stopped, as far as it says."""
+    parts = []
+    for word, attribute in (("element", "element"), ("row", "row"), ("property", "prop")):
+        value = getattr(exc, attribute, None)
+        if value is not None:
+            value = getattr(value, "name", value)
+            parts.append(f"{word} {value}" if isinstance(value, int) else f"{word} {quote_key(value)}")
+    return f" ({', '.join(parts)})" if parts else ""
 
 
 def read_ply(path) -> MeshData:
@@ -436,8 +458,10 @@ def read_ply(path) -> MeshData:
             fh.seek(0)
             ply = PlyData.read(fh, known_list_len={"face": {face_prop: 3}}) if triangles else PlyData.read(fh)
             faces = ply["face"][face_prop]
-    except (PlyParseError, ValueError, EOFError) as exc:
-        raise MeshProblem(f"the PLY file does not parse: {exc}") from None
+    except PlyParseError as exc:  # where it failed (element, row, property), never the text there
+        raise MeshProblem("the PLY file does not parse" + _ply_where(exc)) from None
+    except (ValueError, EOFError):
+        raise MeshProblem("the PLY file does not parse (a value is not what its header declares, or the file ends early)") from None
     vert = ply["vertex"].data
     fields = vert.dtype.names
     for axis in "xyz":

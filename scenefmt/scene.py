@@ -6,7 +6,7 @@ import math
 import re
 from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import AfterValidator, ConfigDict, Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import AfterValidator, BeforeValidator, ConfigDict, Discriminator, Field, Tag, WithJsonSchema, field_validator, model_validator
 
 from .base import (
     field_error,
@@ -32,6 +32,26 @@ from .textures import Texture
 
 FORMAT_VERSION = 1
 MAX_SHAPES = 5_000_000
+MAX_INCLUDES = 256
+
+IncludeName = Annotated[str, Field(min_length=1, max_length=4096)]
+_INCLUDE_SCHEMA = {
+    "anyOf": [
+        {"type": "string", "minLength": 1, "maxLength": 4096},
+        {"type": "array", "items": {"type": "string", "minLength": 1, "maxLength": 4096}, "maxItems": MAX_INCLUDES},
+    ]
+}
+
+
+def _one_or_more_files(value: Any) -> Any:
+    """`include: lib.yaml` is the one-element list `[lib.yaml]`."""
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, list):
+        return value
+    kind = {True: "true", False: "false", None: "null"}.get(value) if value is None or isinstance(value, bool) else (
+        "a number" if isinstance(value, (int, float)) else "a mapping" if isinstance(value, dict) else type(value).__name__)
+    raise ValueError(f"expected a file name or a list of file names, found {kind}")
 
 
 class Camera(StrictModel):
@@ -331,12 +351,15 @@ class Scene(StrictModel):
 
     version: Literal[1] = Field(FORMAT_VERSION, description="Version of the scene format; this release reads version 1.")
     description: str = Field("", max_length=10_000, description="Free text about the scene.")
-    include: list[Annotated[str, Field(min_length=1, max_length=4096)]] = Field(
+    include: Annotated[
+        list[IncludeName], BeforeValidator(_one_or_more_files), WithJsonSchema(_INCLUDE_SCHEMA)
+    ] = Field(
         default_factory=list,
-        max_length=256,
-        description="Files (relative to this one) whose named `textures`, `materials`, `media`, `groups` and `shapes` "
-        "are merged into this scene; a name defined twice is an error. Included files may include others "
-        "(not themselves); a file included twice is read once.",
+        max_length=MAX_INCLUDES,
+        description="A file, or a list of files (relative to this one), whose named `textures`, `materials`, `media`, "
+        "`groups` and `shapes` are merged into this scene; a name defined twice is an error. Included files may "
+        "include others (not themselves); a file included twice is read once. Like every file a scene names, an "
+        "included file must lie inside the main scene's folder unless `--allow-path` allows another.",
     )
     camera: Camera = Field(default_factory=Camera, description="The camera.")
     image: Image = Field(default_factory=Image, description="Image size and sampling.")

@@ -8,13 +8,16 @@ are not reported twice.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Iterable, Optional
 
 from pydantic import ValidationError
 
 from .diagnostics import Diagnostic, SceneError
 from .errors import data_path, diagnostics_from
+from .files import reading_within
 from .graph import SceneGraph, build_graph, graph_problems
 from .includes import resolve_includes
 from .loading import SourceDocument, parse_file, parse_stream, parse_text, paused_gc
@@ -123,30 +126,50 @@ def compose(doc: SourceDocument, overrides: Iterable[str] = ()) -> SourceDocumen
     return apply_overrides(doc, overrides)
 
 
-def load(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+def allowed_folders(home, allow_paths: Iterable = ()) -> list:
+    """The folders a scene may read files from: `home` (the main scene file's folder, or the
+    current folder for standard input and data) and every folder of `allow_paths`."""
+    return [home] + [Path(p) for p in allow_paths]
+
+
+def load(path, overrides: Iterable[str] = (), syntax: Optional[str] = None, allow_paths: Iterable = ()) -> LoadedScene:
     """Load, validate and resolve a scene file (YAML or JSON), with its includes and `--set`
-    overrides; raises `SceneError`."""
-    with paused_gc():
+    overrides; raises `SceneError`. Files the scene names (includes, textures, meshes) are read
+    only from the scene file's own folder (symbolic links resolved) and those in `allow_paths`."""
+    home = scene_folder(path)
+    with paused_gc(), reading_within(allowed_folders(home, allow_paths)):
         return check_document(compose(parse_file(path, syntax), overrides))
 
 
-def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = ()) -> LoadedScene:
-    """Like `load`, from text (includes are relative to `base_dir`, by default the current folder)."""
-    with paused_gc():
+def scene_folder(path) -> Path:
+    """The real folder of a scene file: where its relative names resolve from, and what it may read."""
+    try:
+        return Path(os.path.realpath(os.fsdecode(path))).parent
+    except (OSError, ValueError, TypeError):
+        return Path.cwd()
+
+
+def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = (),
+          allow_paths: Iterable = ()) -> LoadedScene:
+    """Like `load`, from text (includes are relative to `base_dir`, by default the current folder,
+    which is also the folder its files may be read from)."""
+    home = Path(base_dir) if base_dir is not None else Path.cwd()
+    with paused_gc(), reading_within(allowed_folders(home, allow_paths)):
         return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
 
 
-def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None, allow_paths: Iterable = ()) -> LoadedScene:
     """Like `load`, from a binary stream (standard input), bounded as a file is; relative paths in it
-    (includes, image textures) resolve from the current folder."""
-    with paused_gc():
+    (includes, image textures) resolve from the current folder, and files are read only from there
+    (and `allow_paths`)."""
+    with paused_gc(), reading_within(allowed_folders(Path.cwd(), allow_paths)):
         return check_document(compose(parse_stream(stream, syntax=syntax), overrides))
 
 
-def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = None) -> LoadedScene:
+def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = None, allow_paths: Iterable = ()) -> LoadedScene:
     """`load` for a path given on the command line: `-` is standard input."""
     import sys
 
     if str(path) == "-":
-        return load_stream(sys.stdin.buffer, overrides, syntax)
-    return load(path, overrides, syntax)
+        return load_stream(sys.stdin.buffer, overrides, syntax, allow_paths)
+    return load(path, overrides, syntax, allow_paths)

@@ -52,7 +52,14 @@ shapes:
   its own line and column, with the place that included it:
   `parts/room.yaml:4:60: error: shapes[1].material: undefined material 'glas'; did you mean
   'glass'? (included from scene.yaml:2:28)`. Includes nest at most 16 deep, at most 256 files
-  and 128 MiB in all.
+  and 128 MiB in all; `include: materials.yaml` is one file.
+- **Files a scene may read.** Every file a scene names (includes, image textures, environment
+  maps, meshes, and those given by `--set`) must lie inside the main scene file's folder, after
+  symbolic links are resolved (for standard input, the current folder); anything else is
+  refused before it is opened, at its key path. `--allow-path DIR` (repeatable, on `rt render`,
+  `rt validate` and `rt watch`) and `allow_paths=[...]` (`rt.render`, `rt.load`, `rt.validate`)
+  add folders. A file named where a scene is expected that is not one gets one error that
+  quotes nothing of it.
 - **Changing a value from the command line.** `rt render` and `rt validate` take
   `--set KEY.PATH=VALUE` (repeatable): `--set image.samples_per_pixel=64 --set
   materials.glass.ior=1.33 --set 'shapes[2].center=[0, 1, 0]'`. `VALUE` is read as YAML and

@@ -49,7 +49,8 @@ def scene(background: str, shapes: str = "", image: str = "width: 8, aspect_rati
 
 
 def flat_of(map_path: Path, rotate: float = 0.0, strength: float = 1.0):
-    return compile_scene(loads(scene(f"{{type: image, file: '{map_path}', rotate: {rotate}, strength: {strength}}}")).graph)
+    return compile_scene(loads(scene(f"{{type: image, file: '{map_path}', rotate: {rotate}, strength: {strength}}}"),
+                               allow_paths=[map_path.parent]).graph)
 
 
 def sphere_grid():
@@ -147,7 +148,7 @@ def test_a_shadow_ray_to_infinity_is_blocked_or_attenuated(tmp_path):
     text = scene("{type: image, file: '%s'}" % a_map(tmp_path),
                  "{type: sphere, center: [0, 0, 0], radius: 2, interior: {type: constant, density: 0.5, albedo: [1, 1, 1]}},"
                  " {type: quad, q: [5, -1, -1], u: [0, 2, 0], v: [0, 0, 2], material: white}")
-    flat = compile_scene(loads(text).graph)
+    flat = compile_scene(loads(text, allow_paths=[tmp_path]).graph)
     inf = math.inf
     assert ray_transmittance(flat, np.array([0.0, 0, 0]), np.array([0.0, 1, 0]), inf, 0.0) == pytest.approx(math.exp(-1.0), rel=1e-9)
     assert ray_transmittance(flat, np.array([0.0, 0, -3]), np.array([0.0, 0, 1]), inf, 0.0) == pytest.approx(math.exp(-2.0), rel=1e-9)
@@ -164,7 +165,7 @@ def test_a_white_sphere_under_a_uniform_environment_of_radiance_one_is_one(tmp_p
     write_pfm(uniform, np.ones((8, 16, 3)))
     text = scene(f"{{type: image, file: '{uniform}'}}", "{type: sphere, center: [0, 0, 0], radius: 1.5, material: one}",
                  "width: 16, aspect_ratio: 1, samples_per_pixel: 64, max_depth: 50")
-    graph = loads(text).graph
+    graph = loads(text, allow_paths=[tmp_path]).graph
     exact = render(with_integrator(graph, "path")).film.mean()
     assert np.all(np.abs(exact - 1.0) <= 1e-12)
     film = render(graph).film
@@ -192,7 +193,7 @@ def test_light_sampling_converges_to_the_books_estimator_under_a_map(tmp_path):
     100,000 paths a pixel.)"""
     text = scene(f"{{type: image, file: '{a_map(tmp_path)}', rotate: 40}}", LIT_BY_THE_SKY,
                  "width: 24, aspect_ratio: 1, samples_per_pixel: 256, max_depth: 12")
-    graph = loads(text).graph
+    graph = loads(text, allow_paths=[tmp_path]).graph
     flat = compile_scene(graph)
     assert 0.1 <= flat.background[5] <= 0.9, "the map and the area light share the light samples"
     mis = render(graph, seed=1).film
@@ -223,7 +224,7 @@ def test_hard_maps_give_finite_pixels(tmp_path, case):
                  "{type: sphere, center: [0, 0, 0], radius: 1, material: white},"
                  " {type: sphere, center: [0, 0.8, 0.9], radius: 0.3, interior: {type: constant, density: 2, albedo: [0.9, 0.9, 0.9]}}",
                  "width: 12, aspect_ratio: 1, samples_per_pixel: 16, max_depth: 8")
-    result = render(loads(text).graph)
+    result = render(loads(text, allow_paths=[tmp_path]).graph)
     assert result.stats.bad_samples == 0
     assert np.all(np.isfinite(result.film.total)) and np.all(np.isfinite(result.film.total_sq))
     if case in ("black", "strength zero"):

@@ -46,7 +46,7 @@ CASES: dict[str, str] = {
     "unknown_shape_type": f"shapes: [{{type: sphear, center: [0, 0, 0], radius: 1}}]",
     "misspelt_key_in_a_material": "materials: {m: {type: metal, fuzzz: 0.1}}",
     "inline_material_of_unknown_type": f"shapes: [{SPHERE}, material: {{type: metl}}}}]",
-    "include_not_a_list": "include: lib.yaml",
+    "include_not_a_name": "include: 7",
     "empty_include_name": "include: ['']",
     # Beyond the schema.
     "width_written_as_a_float": "image: {width: 100.0}",
@@ -142,7 +142,7 @@ def test_the_schema_and_the_validator_disagree_only_where_the_schema_cannot_foll
 @pytest.mark.parametrize("name", [
     "sphere_without_material_or_interior", "box_with_null_material_only", "aperture_and_defocus_angle",
     "height_and_aspect_ratio", "width_fractional", "zero_disk_normal", "zero_rotation_axis", "zero_scale_in_a_list",
-    "zero_up", "include_not_a_list", "empty_include_name",
+    "zero_up", "include_not_a_name", "empty_include_name",
 ])
 def test_the_schema_refuses_what_it_now_expresses(name, schema_validator):
     assert not schema_validator.is_valid(parse_text(CASES[name], name, "yaml").data)

@@ -72,7 +72,7 @@ def sparse(path, header: bytes, size: int):
 # --- OBJ ----------------------------------------------------------------------------------------
 
 
-def test_a_face_of_too_many_corners_is_refused_at_its_line_before_its_numbers_are_read(tmp_path, monkeypatch):
+def test_a_face_of_too_many_corners_is_refused_at_its_line_before_its_numbers_are_read(tmp_path):
     # The file: one face of 40 million corners (80 MB) took 3.5 GB and 87 s before a
     # traceback. Here 1,000,001 corners (2 MB), one above the limit.
     (tmp_path / "fan.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf " + b"1 " * 1_000_001 + b"\n")
@@ -245,7 +245,7 @@ def test_a_mesh_named_by_eight_shapes_and_spellings_is_read_once(tmp_path, monke
     assert loaded.graph.memory.primitives == 8 * 320 * bounds.MESH_TRIANGLE_BYTES  # each shape still counts its triangles
 
 
-def test_a_changed_file_is_a_different_file(tmp_path, monkeypatch):
+def test_a_changed_file_is_a_different_file(tmp_path):
     from scenefmt.assets import AssetCache
 
     path = tmp_path / "a.obj"

@@ -72,28 +72,41 @@ def load_image_texels(path: Path, colorspace: str = "srgb") -> np.ndarray:
     The file is opened as a regular file only, and its size is checked from its header before
     anything is decoded.
     """
+    import warnings
+
     from PIL import Image, UnidentifiedImageError
 
+    from scenefmt.bounds import TEXTURE_BYTES_PER_PIXEL, gib, memory_limit, memory_limit_text
     from scenefmt.files import FileProblem, open_regular_file
     from scenefmt.graph import MAX_TEXTURE_PIXELS  # the bound `rt validate` checks
     from scenefmt.hdr_files import HdrProblem, is_hdr, read_hdr
 
     if is_hdr(path):  # float RGB, linear as stored: `colorspace` does not apply
         try:
-            return read_hdr(path, MAX_TEXTURE_PIXELS)
+            return read_hdr(path, MAX_TEXTURE_PIXELS, memory_limit())
         except HdrProblem as exc:
             raise ValueError(f"{path}: {exc}") from None
 
     try:
-        with open_regular_file(path) as fh, Image.open(fh) as img:
-            if img.width * img.height > MAX_TEXTURE_PIXELS:
-                raise ValueError(f"{path}: {img.width} x {img.height} is larger than the {MAX_TEXTURE_PIXELS:,} pixels allowed")
-            rgb8 = np.asarray(img.convert("RGB"), dtype=np.uint8)
+        with warnings.catch_warnings(), open_regular_file(path) as fh:
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # bounded below, by our own limits
+            with Image.open(fh) as img:
+                pixels = img.width * img.height
+                if pixels > MAX_TEXTURE_PIXELS:
+                    raise ValueError(f"{path}: {img.width} x {img.height} is larger than the {MAX_TEXTURE_PIXELS:,} pixels allowed")
+                if pixels * TEXTURE_BYTES_PER_PIXEL > memory_limit():  # checked before a pixel is decoded
+                    raise ValueError(f"{path}: is {img.width} x {img.height} pixels: decoding it needs about "
+                                     f"{gib(pixels * TEXTURE_BYTES_PER_PIXEL)}, more than {memory_limit_text()}")
+                rgb8 = np.asarray(img.convert("RGB"), dtype=np.uint8)
     except FileProblem as exc:
         raise ValueError(f"{path}: {exc}") from None
-    except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+    except (UnidentifiedImageError, Image.DecompressionBombError) as exc:
         # Not Pillow's words: they may quote the file (a PPM's header token); the kind of failure only.
         raise ValueError(f"{path}: cannot read it as an image (Pillow could not decode it: {type(exc).__name__})") from None
+    except (ValueError, MemoryError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - a decoder meets a broken file: OSError, SyntaxError, struct.error, ...
+        raise ValueError(f"{path}: cannot read it as an image ({type(exc).__name__}: the file is damaged or truncated)") from None
     table = np.arange(256, dtype=np.float64) / 255.0
     if colorspace == "srgb":
         table = srgb_to_linear(table)
@@ -133,6 +146,9 @@ class TextureTables:
         self.noise_seeds: list[int] = []
         self._rows: dict[int, int] = {}
         self._white: int | None = None
+        # (file identity, colorspace) -> (first texel, width, height): a file named by several
+        # textures (or spellings of its path) is decoded once and its texels shared.
+        self._images: dict[tuple, tuple[int, int, int]] = {}
 
     def add(self, node) -> int:
         """The row of texture node `node` (a scenefmt.graph.TextureNode), added with its children."""
@@ -153,15 +169,9 @@ class TextureTables:
         elif m.type == "image":
             from scenefmt.diagnostics import format_path
 
-            try:
-                texels = load_image_texels(node.image_path, m.colorspace)
-            except ValueError as exc:
-                raise ValueError(f"image texture at {format_path(node.path)}: {exc}") from None
-            h, w = texels.shape[:2]
+            first, w, h = self._image(node, m.colorspace, format_path)
             ints = TEXTURE_I.row(kind=TEX_IMAGE, even=-1, odd=-1)
-            floats = IMAGE_F.row(texels=float(self.texel_count), width=float(w), height=float(h))
-            self.texel_chunks.append(texels.reshape(-1, 3))
-            self.texel_count += w * h
+            floats = IMAGE_F.row(texels=float(first), width=float(w), height=float(h))
         else:
             ints = TEXTURE_I.row(kind=TEX_NOISE, even=-1, odd=-1)
             floats = NOISE_F.row(color=m.color, scale=m.scale, form=float(NOISE_FORMS[m.form]),
@@ -169,6 +179,27 @@ class TextureTables:
             self.noise_seeds.append(m.seed)
         self.ints[index], self.floats[index] = ints, floats
         return index
+
+    def _image(self, node, colorspace: str, format_path) -> tuple[int, int, int]:
+        """(first texel, width, height) of an image texture's file, decoded on its first use only."""
+        from scenefmt.assets import file_identity
+        from scenefmt.hdr_files import is_hdr
+
+        identity = file_identity(node.image_path)
+        key = (identity, "linear" if is_hdr(node.image_path) else colorspace)
+        if identity is not None and key in self._images:
+            return self._images[key]
+        try:
+            texels = load_image_texels(node.image_path, colorspace)
+        except ValueError as exc:
+            raise ValueError(f"image texture at {format_path(node.path)}: {exc}") from None
+        h, w = texels.shape[:2]
+        placed = (self.texel_count, w, h)
+        self.texel_chunks.append(texels.reshape(-1, 3))
+        self.texel_count += w * h
+        if identity is not None:
+            self._images[key] = placed
+        return placed
 
     def white(self) -> int:
         """The row of a solid white texture, added once (a dielectric attenuates by it)."""

@@ -158,6 +158,17 @@ def validate(
         shown = STDIN_NAME if str(path) == "-" else str(path)
         try:
             loaded = load_source(path, overrides, syntax.value if syntax else None, allow_paths)
+        except MemoryError as exc:  # the estimates allowed the work, but the memory is not there
+            from scenefmt.assets import memory_message
+            from scenefmt.diagnostics import Diagnostic, escape_control
+
+            failed = True
+            message = memory_message(exc, "load the scene")
+            diag = Diagnostic(shown, 0, 0, (), message)
+            results.append({"file": shown, "valid": False, "errors": [diag.to_json()], "warnings": []})
+            if not as_json:
+                typer.echo(escape_control(f"error: {shown}: {message}"), err=True)
+            continue
         except SceneError as exc:
             failed = True
             results.append({"file": shown, "valid": False, "errors": [d.to_json() for d in exc.diagnostics], "warnings": []})

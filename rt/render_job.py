@@ -152,8 +152,13 @@ def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = Non
     from scenefmt.bounds import check_memory
 
     graph = render_graph(loaded, width, integrator)
-    check_memory(graph, loaded.document)  # --width changes the film's size
-    return graph, compile_scene(graph)
+    estimate = check_memory(graph, loaded.document)  # --width changes the film's size
+    try:
+        return graph, compile_scene(graph)
+    except MemoryError as exc:  # the estimate allowed it, but the memory is not there (others use it)
+        from scenefmt.assets import memory_message
+
+        raise ValueError(memory_message(exc, "flatten the scene", estimate.total)) from None
 
 
 def max_threads() -> int:
@@ -282,6 +287,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise Stop(1)
     except ValueError as exc:  # input the format cannot check, such as an image that does not decode
         raise fail(f"error: {opts.scene}: {exc}")
+    except MemoryError as exc:  # reading the scene file itself
+        from scenefmt.assets import memory_message
+
+        raise fail(f"error: {opts.scene}: {memory_message(exc, 'load the scene')}")
     for diag in loaded.warnings:  # as `rt validate` prints them: an empty scene renders, with a word
         say(str(diag), err=True)
     if opts.explain:
@@ -506,6 +515,10 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         )
     except ValueError as exc:
         failure = str(exc)
+    except MemoryError as exc:  # the film and the kernels' buffers, allowed by the estimate but not there
+        from scenefmt.assets import memory_message
+
+        failure = memory_message(exc, "render it")
     except ClusterError as exc:
         if connection is not None and connection.client.status != "running":
             connection.close()  # now: a client left trying to reconnect would log its failure later

@@ -80,8 +80,37 @@ def physical_memory() -> int:
     return 8 << 30
 
 
+def address_space_left() -> Optional[int]:
+    """Bytes this process may still map under its address-space limit (`ulimit -v`, `prlimit
+    --as`), or None where it has none: past it every allocation fails, whatever the machine has."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft == resource.RLIM_INFINITY or soft <= 0:
+            return None
+        with open("/proc/self/statm", "rb") as fh:
+            mapped = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        return max(0, soft - mapped)
+    except (ImportError, OSError, ValueError, IndexError):
+        return None
+
+
 def memory_limit() -> int:
-    return int(MEMORY_SHARE * physical_memory())
+    """The bytes a scene and its files may need: a share of physical memory, and never more than
+    the address space this process has left."""
+    limit = int(MEMORY_SHARE * physical_memory())
+    left = address_space_left()
+    return limit if left is None else min(limit, left)
+
+
+def memory_limit_text() -> str:
+    """'the 12.0 GiB allowed on this machine (75% of its 16.0 GiB of memory)', or the address-space
+    limit where that is the smaller."""
+    limit = memory_limit()
+    if limit < int(MEMORY_SHARE * physical_memory()):
+        return f"the {gib(limit)} this process may still allocate (its address-space limit, ulimit -v)"
+    return f"the {gib(limit)} allowed on this machine ({MEMORY_SHARE:.0%} of its {gib(physical_memory())} of memory)"
 
 
 def gib(n: float) -> str:
@@ -189,15 +218,27 @@ def shape_extent_and_size(model, mesh=None) -> tuple[float, float]:
     raise TypeError(kind)
 
 
+# Triangles measured at a time: about 300 bytes of temporaries each.
+_MESH_CHUNK = 1 << 20
+
+
 def _mesh_extent_and_size(mesh) -> tuple[float, float]:
-    """Largest coordinate and smallest triangle size (twice its area over its longest edge)."""
+    """Largest coordinate and smallest triangle size (twice its area over its longest edge),
+    kept on the mesh: shapes that share a mesh (one file named by several) measure it once."""
     import numpy as np
 
+    if getattr(mesh, "extent_and_size", None) is not None:
+        return mesh.extent_and_size
     v, f = mesh.vertices, mesh.faces
-    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    edges = np.stack([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1), np.linalg.norm(p0 - p2, axis=1)])
-    area2 = np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
-    return float(np.abs(v).max()), float(np.min(np.minimum(edges.min(axis=0), area2 / edges.max(axis=0))))
+    least = math.inf
+    for lo in range(0, len(f), _MESH_CHUNK):  # a chunk at a time: the temporaries stay bounded
+        part = f[lo:lo + _MESH_CHUNK]
+        p0, p1, p2 = v[part[:, 0]], v[part[:, 1]], v[part[:, 2]]
+        edges = np.stack([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1), np.linalg.norm(p0 - p2, axis=1)])
+        area2 = np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+        least = min(least, float(np.min(np.minimum(edges.min(axis=0), area2 / edges.max(axis=0)))))
+    mesh.extent_and_size = (float(np.abs(v).max()), least)
+    return mesh.extent_and_size
 
 
 def _sub(a, b):
@@ -343,24 +384,12 @@ def _rows(member) -> int:
     return 0 if kind == "instance" else 1
 
 
-def _image_pixels(path) -> int:
-    import warnings
-
-    from PIL import Image
-
-    from .files import open_regular_file
-    from .hdr_files import hdr_size, is_hdr
-
-    try:
-        if is_hdr(path):
-            width, height = hdr_size(path)
-            return width * height
-        with warnings.catch_warnings(), open_regular_file(path) as fh:
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # we say more, below
-            with Image.open(fh) as img:
-                return img.width * img.height
-    except Exception:  # noqa: BLE001 - checked and reported by the graph already
-        return 0
+def _image_pixels(node) -> int:
+    """Pixels of an image texture node, from the header the graph read (never the file again)."""
+    if node.image_size is not None:
+        width, height = node.image_size
+        return width * height
+    return 0
 
 
 def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate:
@@ -379,7 +408,7 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     for node, extra in images:
         if node.image_path is not None:
             per_pixel = HDR_TEXTURE_BYTES_PER_PIXEL if node.image_peak is not None else TEXTURE_BYTES_PER_PIXEL
-            n = _image_pixels(node.image_path) * (per_pixel + extra)
+            n = _image_pixels(node) * (per_pixel + extra)
             est.textures += n
             if n > biggest[0]:
                 biggest = (n, node.path + ("file",))
@@ -429,8 +458,8 @@ def memory_problems(estimate: MemoryEstimate, diagnostic: Callable[[tuple, str],
     return [
         diagnostic(
             estimate.parts.get(worst, ()),
-            f"rendering this scene needs about {gib(estimate.total)} ({estimate.describe()}), more than the "
-            f"{gib(limit)} allowed on this machine ({MEMORY_SHARE:.0%} of its {gib(physical_memory())} of memory)",
+            f"rendering this scene needs about {gib(estimate.total)} ({estimate.describe()}), more than "
+            f"{memory_limit_text()}",
         )
     ]
 

@@ -17,7 +17,8 @@ from . import affine, bounds
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path, quote_key
 from .files import FileProblem, describe_os_error, open_regular_file, outside_problem, path_problem, record_read
-from .hdr_files import HdrProblem, hdr_size, is_hdr, read_hdr
+from .assets import AssetCache, memory_message
+from .hdr_files import HdrProblem, hdr_header, hdr_peak, is_hdr
 from .loading import SourceDocument
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
@@ -39,6 +40,7 @@ class TextureNode:
     path: tuple
     inputs: dict[str, "TextureNode"] = field(default_factory=dict)
     image_path: Optional[Path] = None  # resolved file of an image texture
+    image_size: Optional[tuple] = None  # its (width, height), from its header
     image_peak: Optional[float] = None  # the largest value of a float (.exr, .pfm) image; 8-bit ones peak at 1
 
     @property
@@ -171,34 +173,43 @@ class SceneGraph:
 MAX_TEXTURE_PIXELS = 16384 * 16384
 
 
-def _image_problem(path: Path) -> Optional[str]:
-    """Why `path` cannot serve as an image texture, or None. Reads only the file's header."""
+class ImageProblem(ValueError):
+    """An image file cannot serve as a texture; the message says why, without the file's name."""
+
+
+def image_header(path: Path) -> tuple[int, int]:
+    """(width, height) of an image file, from its header alone; ImageProblem if it cannot serve
+    as a texture (unreadable, or more than MAX_TEXTURE_PIXELS)."""
     from PIL import Image, UnidentifiedImageError
 
     if is_hdr(path):
         try:
-            width, height = hdr_size(path)
+            header = hdr_header(path)
         except HdrProblem as exc:
-            return str(exc)
-        if width * height > MAX_TEXTURE_PIXELS:
-            return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
-        return None
-
-    try:
-        with warnings.catch_warnings(), open_regular_file(path) as fh:
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the memory estimate says more
-            with Image.open(fh) as img:
-                width, height = img.size
-    except FileProblem as exc:
-        return str(exc)
-    except UnidentifiedImageError:
-        return "is not a readable image (not a format Pillow can identify)"
-    except (OSError, Image.DecompressionBombError, ValueError) as exc:
-        # Pillow's own words may quote the file's header (a PPM's first token): only their kind.
-        return f"is not a readable image (Pillow could not decode its header: {type(exc).__name__})"
+            raise ImageProblem(str(exc)) from None
+        width, height = header.width, header.height
+    else:
+        try:
+            with warnings.catch_warnings(), open_regular_file(path) as fh:
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # the memory estimate says more
+                with Image.open(fh) as img:
+                    width, height = img.size
+        except FileProblem as exc:
+            raise ImageProblem(str(exc)) from None
+        except UnidentifiedImageError:
+            raise ImageProblem("is not a readable image (not a format Pillow can identify)") from None
+        except Image.DecompressionBombError:
+            raise ImageProblem(f"has more pixels than Pillow decodes ({2 * Image.MAX_IMAGE_PIXELS:,}, "
+                               "its decompression-bomb limit)") from None
+        except (OSError, ValueError) as exc:  # Pillow's own words may quote the file's header (a PPM's first token): only their kind
+            raise ImageProblem(f"is not a readable image (Pillow could not decode its header: {type(exc).__name__})") from None
+        except MemoryError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a plugin's parsing meets what it did not expect
+            raise ImageProblem(f"is not a readable image ({type(exc).__name__} in its header)") from None
     if width * height > MAX_TEXTURE_PIXELS:
-        return f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed"
-    return None
+        raise ImageProblem(f"is {width} x {height} pixels, more than the {MAX_TEXTURE_PIXELS:,} allowed")
+    return width, height
 
 
 class _Resolver:
@@ -221,6 +232,7 @@ class _Resolver:
         self._texture_stack: list[str] = []
         self._group_stack: list[str] = []
         self.mesh_warnings: list[Diagnostic] = []
+        self.assets = AssetCache()  # each file read once, however many places name it
 
     # --- reporting -----------------------------------------------------------------------------
 
@@ -306,13 +318,33 @@ class _Resolver:
         reporting why, no file."""
         file, where = node.model.file, node.path + ("file",)
         node.image_path = self.image_file(file, where)
-        if node.image_path is not None and is_hdr(node.image_path):
-            # A float image may hold any value: read it, so its colours are checked as a reflectance or
-            # radiance where it is used (and its values are finite and not negative).
+        if node.image_path is None:
+            return
+        try:
+            node.image_size = self.assets.get("image", node.image_path, lambda: image_header(node.image_path))
+        except ImageProblem as exc:  # a scene without a document: its files are checked only here
+            self.error(where, f"image file '{file}' {exc}")
+            node.image_path = None
+            return
+        if is_hdr(node.image_path):
+            # A float image may hold any value: decode it once, its header and the memory that
+            # takes checked first, so its colours are checked as a reflectance or radiance where
+            # it is used (and its values are finite and not negative).
+            path = node.image_path
+            width, height = node.image_size
+            need = width * height * bounds.HDR_TEXTURE_BYTES_PER_PIXEL
+            if need > bounds.memory_limit():  # the render could not hold it: say so before decoding it
+                self.error(where, f"image file '{file}' is {width} x {height} pixels: rendering with it needs about "
+                           f"{bounds.gib(need)}, more than {bounds.memory_limit_text()}")
+                node.image_path = None
+                return
             try:
-                node.image_peak = float(read_hdr(node.image_path, MAX_TEXTURE_PIXELS).max(initial=0.0))
+                node.image_peak = self.assets.get("peak", path, lambda: hdr_peak(path, MAX_TEXTURE_PIXELS, bounds.memory_limit()))
             except HdrProblem as exc:
                 self.error(where, f"image file '{file}' {exc}")
+                node.image_path = None
+            except MemoryError as exc:
+                self.error(where, f"image file '{file}': " + memory_message(exc, "decode it", need))
                 node.image_path = None
 
     def image_file(self, file: str, path: tuple) -> Optional[Path]:
@@ -337,9 +369,10 @@ class _Resolver:
             record_read(resolved)  # looked for: watched, so that creating it counts as a change
             self.error(path, f"image file '{file}' not found (looked for {resolved})")
             return None
-        problem = _image_problem(resolved)
-        if problem:
-            self.error(path, f"image file '{file}' {problem}")
+        try:
+            self.assets.get("image", resolved, lambda: image_header(resolved))
+        except ImageProblem as exc:
+            self.error(path, f"image file '{file}' {exc}")
             return None
         return resolved
 
@@ -490,7 +523,7 @@ class _Resolver:
 
     def mesh_data(self, model: Mesh, path: tuple):
         """The mesh's checked data (from its file or inline arrays), or None after reporting why."""
-        from .meshfile import MeshProblem, from_arrays, read_mesh
+        from .meshfile import MeshProblem, from_arrays, read_estimate, read_mesh
 
         if model.file is None:
             where, name = path + ("faces",), "the inline mesh"
@@ -522,11 +555,18 @@ class _Resolver:
                 self.error(where, f"{name} not found (looked for {resolved})")
                 return None
             try:
-                mesh = read_mesh(resolved)
+                mesh = self.assets.get("mesh", resolved, lambda: read_mesh(resolved))
             except (MeshProblem, FileProblem) as exc:
                 line = getattr(exc, "line", None)
                 self.error(where, f"{name} line {line}: {exc.message}" if line else f"{name}: {exc}")
                 return None
+            except MemoryError as exc:
+                self.error(where, f"{name}: " + memory_message(exc, "read it", read_estimate(resolved)))
+                return None
+            if mesh.mtllib_line is not None:
+                self.mesh_warnings.append(self.warn(
+                    where, f"{name} names a material library (mtllib, line {mesh.mtllib_line}): the OBJ's materials are "
+                    "not read; the shape's material: is used for every face"))
         if mesh.degenerate:
             self.mesh_warnings.append(self.warn(
                 where, f"{name}: {mesh.degenerate:,} of its {len(mesh.faces) + mesh.degenerate:,} triangles have zero area and are left out"))

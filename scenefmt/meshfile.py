@@ -17,6 +17,7 @@ the face list length declared it reads 10^6 binary triangles in 0.05 s.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,10 +26,20 @@ from typing import Optional
 import numpy as np
 
 from .diagnostics import did_you_mean, key_shown, quote_key, quote_text  # never a line of the file: it may be anything
-from .files import FileProblem, open_regular_file, read_regular_file
+from .files import FileProblem, open_regular_file
 
-# Largest mesh file read (a scene's memory estimate also counts its triangles).
+# Largest mesh file read, whatever the memory: beyond it the budget below decides first anyway.
 MAX_MESH_BYTES = 4 << 30
+# Peak memory while reading, per byte of an OBJ file (measured: 8 for v and f lines, 11 with
+# v/vt/vn corners, from the lines split apart and the numbers parsed in bulk), and per triangle
+# (its three indices, the fan's temporaries, one chunk of the zero-area test aside).
+OBJ_BYTES_PER_FILE_BYTE = 12
+READ_TRIANGLE_BYTES = 100
+# A face of more corners is refused: a fan of a million triangles around one corner is no
+# surface anyone models, and the file that asks for it is 2 bytes a corner.
+MAX_FACE_CORNERS = 1_000_000
+# Triangles whose area is tested at a time (each costs about 250 bytes of temporaries).
+_CHUNK_TRIANGLES = 1 << 20
 # Two edges whose cross product is below this fraction of their lengths' product make a zero-area triangle.
 DEGENERATE = 1e-12
 # OBJ keywords that carry no surface and are skipped (materials, groups, curves, ...).
@@ -60,31 +71,80 @@ class MeshData:
     uvs: Optional[np.ndarray] = None  # (V, 2) float64, per vertex
     polygons: int = 0  # faces in the file, before triangulation
     degenerate: int = 0  # zero-area triangles dropped
+    mtllib_line: Optional[int] = None  # an OBJ's first `mtllib` line: its materials are not read
+    extent_and_size: Optional[tuple] = None  # (largest coordinate, least triangle size), measured once by scenefmt.bounds
 
 
 def read_mesh(path, drop_degenerate: bool = True) -> MeshData:
     """The mesh in an OBJ or PLY file, checked; raises MeshProblem (or FileProblem)."""
     suffix = Path(path).suffix.lower()
     if suffix == ".obj":
-        mesh = read_obj(read_regular_file(path, MAX_MESH_BYTES))
+        mesh = read_obj(_read_obj_file(path), drop_degenerate)
     elif suffix == ".ply":
-        mesh = read_ply(path)
+        mesh = read_ply(path, drop_degenerate)
     else:
         raise MeshProblem(f"unknown mesh format {suffix or '(no suffix)'!r}: expected a .obj or .ply file")
     return check_mesh(mesh, drop_degenerate)
 
 
+def read_estimate(path) -> Optional[int]:
+    """About the most memory reading the mesh file takes (for an OBJ, from its size), or None."""
+    try:
+        size = os.stat(path).st_size
+    except (OSError, ValueError):
+        return None
+    return size * OBJ_BYTES_PER_FILE_BYTE if Path(path).suffix.lower() == ".obj" else None
+
+
+def _budget_problem(need: int, what: str) -> Optional[str]:
+    """Why `need` bytes for `what` cannot be had (bounds.memory_limit), or None."""
+    from .bounds import gib, memory_limit, memory_limit_text
+
+    if need <= memory_limit():
+        return None
+    return f"{what} needs about {gib(need)}, more than {memory_limit_text()}"
+
+
+def _read_obj_file(path) -> bytes:
+    """The bytes of an OBJ file, after checking from its size that reading it fits the memory
+    budget; read in chunks, each checked for NUL bytes (text has none: a sparse or binary file
+    is refused at its first chunk, not after reading it all)."""
+    with open_regular_file(path) as fh:
+        size = os.fstat(fh.fileno()).st_size
+        if size > MAX_MESH_BYTES:
+            raise MeshProblem(f"the file is larger than the {MAX_MESH_BYTES:,} bytes allowed ({size:,} bytes)")
+        problem = _budget_problem(size * OBJ_BYTES_PER_FILE_BYTE, f"reading this {size:,}-byte OBJ file")
+        if problem:
+            raise MeshProblem(problem)
+        chunks, total = [], 0
+        while total <= size:
+            chunk = fh.read(min(8 << 20, size + 1 - total))
+            if not chunk:
+                break
+            nul = chunk.find(b"\0")
+            if nul >= 0:
+                raise MeshProblem(f"not an OBJ text file: byte {total + nul + 1:,} is a NUL byte (a binary or sparse file)")
+            chunks.append(chunk)
+            total += len(chunk)
+        if total > size:
+            raise MeshProblem("the file grew while it was read")
+    return b"".join(chunks)
+
+
 def from_arrays(vertices, faces, normals=None, uvs=None, drop_degenerate: bool = True) -> MeshData:
     """A MeshData from arrays given inline (faces may be polygons of equal size, or lists)."""
     v = np.asarray(vertices, np.float64).reshape(-1, 3)
+    vertex_count = len(v) if drop_degenerate else None  # None: _fans keeps repeated corners
     if isinstance(faces, np.ndarray) and faces.ndim == 2:
-        f, polygons = _fans(faces.astype(np.int64).reshape(-1), np.full(len(faces), faces.shape[1])), len(faces)
+        counts = np.full(len(faces), faces.shape[1])
+        f, dropped = _fans(faces.astype(np.int64).reshape(-1), counts, vertex_count)
     else:
         counts = np.array([len(face) for face in faces], np.int64)
         flat = np.array([i for face in faces for i in face], np.int64)
-        f, polygons = _fans(flat, counts), len(counts)
+        f, dropped = _fans(flat, counts, vertex_count)
+    polygons = len(counts)
     mesh = MeshData(v, f, None if normals is None else np.asarray(normals, np.float64).reshape(-1, 3),
-                    None if uvs is None else np.asarray(uvs, np.float64).reshape(-1, 2), polygons)
+                    None if uvs is None else np.asarray(uvs, np.float64).reshape(-1, 2), polygons, dropped)
     return check_mesh(mesh, drop_degenerate)
 
 
@@ -92,6 +152,8 @@ def check_mesh(mesh: MeshData, drop_degenerate: bool = True) -> MeshData:
     """Reject what cannot be rendered; drop (and count) zero-area triangles."""
     v, f = mesh.vertices, mesh.faces
     if len(f) == 0:
+        if mesh.degenerate:  # every triangle repeated a corner and was left out
+            raise MeshProblem(f"every one of the mesh's {mesh.degenerate:,} triangles has zero area")
         raise MeshProblem("the mesh has no faces")
     bad = ~np.isfinite(v).all(axis=1)
     if bad.any():
@@ -109,26 +171,79 @@ def check_mesh(mesh: MeshData, drop_degenerate: bool = True) -> MeshData:
         if bad.any():
             raise MeshProblem(f"{name} {int(np.argmax(bad)) + 1} has a NaN or infinite value")
     if drop_degenerate:
-        p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-        e1, e2 = p1 - p0, p2 - p0
-        area = np.linalg.norm(np.cross(e1, e2), axis=1)
-        keep = area > DEGENERATE * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
-        mesh.degenerate = int(len(f) - keep.sum())
-        if mesh.degenerate:
+        keep = np.empty(len(f), bool)
+        for lo in range(0, len(f), _CHUNK_TRIANGLES):  # a chunk at a time: the temporaries stay bounded
+            keep[lo:lo + _CHUNK_TRIANGLES] = _has_area(v, f[lo:lo + _CHUNK_TRIANGLES])
+        dropped = int(len(f) - keep.sum())
+        if dropped:
             mesh.faces = f[keep]
+        mesh.degenerate += dropped  # with those the fans left out (repeated corners)
         if len(mesh.faces) == 0:
-            raise MeshProblem(f"every one of the mesh's {len(f)} triangles has zero area")
+            raise MeshProblem(f"every one of the mesh's {len(mesh.faces) + mesh.degenerate:,} triangles has zero area")
     return mesh
 
 
-def _fans(corners: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Triangles (c0, ck, ck+1) of polygons given as their corners, one after another."""
+def _has_area(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Which triangles `f` (rows of `v`) have an area above DEGENERATE of their edges' product."""
+    p0, p1, p2 = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    e1, e2 = p1 - p0, p2 - p0
+    area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    return area > DEGENERATE * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+
+
+def _fans(corners: np.ndarray, counts: np.ndarray, vertex_count: Optional[int] = None) -> tuple[np.ndarray, int]:
+    """Triangles (c0, ck, ck+1) of polygons given as their corners, one after another, and how
+    many were left out for repeating a corner (only when `vertex_count` is given and every corner
+    is below it: an index out of range is left for check_mesh to report).
+
+    The number of triangles is checked against the memory budget before any is made, and the
+    fans are cut a chunk of polygons at a time, each chunk's repeated-corner triangles dropped
+    before the next: a face of a million repeated corners never exists as a million triangles."""
     counts = np.asarray(counts, np.int64)
     if len(counts) and counts.min() < 3:
         raise MeshProblem(f"face {int(np.argmax(counts < 3)) + 1} has {int(counts.min())} corners; at least 3 are needed")
+    if len(counts) and counts.max() > MAX_FACE_CORNERS:
+        raise MeshProblem(f"face {int(np.argmax(counts > MAX_FACE_CORNERS)) + 1} has {int(counts.max()):,} corners, "
+                          f"more than the {MAX_FACE_CORNERS:,} allowed")
+    triangles = int(counts.sum()) - 2 * len(counts)
+    problem = _budget_problem(triangles * READ_TRIANGLE_BYTES, f"cutting its {len(counts):,} faces into {triangles:,} triangles")
+    if problem:
+        raise MeshProblem(problem)
+    drop = vertex_count is not None and (len(corners) == 0 or (corners.min() >= 0 and corners.max() < vertex_count))
     if len(counts) and counts.max() == 3 and counts.min() == 3:
-        return corners.reshape(-1, 3)
+        tris = corners.reshape(-1, 3)
+        if not drop:
+            return tris, 0
+        keep = _distinct_corners(tris)
+        return (tris if keep.all() else tris[keep]), int(len(tris) - keep.sum())
     start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    # Polygons in chunks of about _CHUNK_TRIANGLES triangles (a chunk holds one polygon at least).
+    ends = np.searchsorted(np.cumsum(counts - 2), np.arange(_CHUNK_TRIANGLES, triangles + _CHUNK_TRIANGLES, _CHUNK_TRIANGLES),
+                           side="right")
+    parts, dropped, lo = [], 0, 0
+    for hi in ends.tolist():
+        hi = max(hi, lo + 1) if lo < len(counts) else lo
+        if hi <= lo:
+            continue
+        part = _fan_chunk(corners, start[lo:hi], counts[lo:hi])
+        if drop:
+            keep = _distinct_corners(part)
+            dropped += int(len(part) - keep.sum())
+            part = part[keep]
+        parts.append(part)
+        lo = hi
+    if lo < len(counts):  # guards the chunking: every polygon is cut
+        parts.append(_fan_chunk(corners, start[lo:], counts[lo:]))
+    return (np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)), dropped
+
+
+def _distinct_corners(tris: np.ndarray) -> np.ndarray:
+    """Which triangles have three different corners (one that repeats a corner has no area)."""
+    return (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+
+
+def _fan_chunk(corners: np.ndarray, start: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """The fan triangles of the polygons with corners from `start` (counts of each)."""
     tris = counts - 2
     face = np.repeat(np.arange(len(counts)), tris)
     k = np.arange(len(face)) - np.repeat(np.concatenate([[0], np.cumsum(tris)[:-1]]), tris)
@@ -139,13 +254,14 @@ def _fans(corners: np.ndarray, counts: np.ndarray) -> np.ndarray:
 # --- OBJ --------------------------------------------------------------------------------------
 
 
-def read_obj(data: bytes) -> MeshData:
-    """Parse OBJ text (v, vt, vn, f; everything else that carries no surface is skipped)."""
+def read_obj(data: bytes, drop_degenerate: bool = True) -> MeshData:
+    """Parse OBJ text (v, vt, vn, f; everything else that carries no surface is skipped).
+    With `drop_degenerate`, triangles that repeat a corner are left out as the fans are cut."""
     try:
-        return _obj_fast(data)
+        return _obj_fast(data, drop_degenerate)
     except _NotSimple:
         pass
-    return _obj_slow(data)
+    return _obj_slow(data, drop_degenerate)
 
 
 class _NotSimple(Exception):
@@ -164,7 +280,7 @@ def _tokens_per_line(body: bytes) -> np.ndarray:
     return np.diff(np.searchsorted(np.flatnonzero(start), bounds))
 
 
-def _obj_fast(data: bytes) -> MeshData:
+def _obj_fast(data: bytes, drop_degenerate: bool = True) -> MeshData:
     if b"\\" in data:  # line continuations
         raise _NotSimple
     lines = data.split(b"\n")
@@ -178,10 +294,13 @@ def _obj_fast(data: bytes) -> MeshData:
     is_vn = (c0 == ord("v")) & (c1 == ord("n")) & ((padded[starts + 2] == 32) | (padded[starts + 2] == 9))
     is_f = (c0 == ord("f")) & blank1
     other = np.flatnonzero(~(is_v | is_vt | is_vn | is_f))
+    mtllib_line = None
     for k in other.tolist():
         words = lines[k].split(None, 1)
         if words and not words[0].startswith(b"#") and words[0] not in _OBJ_IGNORED:
             raise _NotSimple
+        if words and words[0] == b"mtllib" and mtllib_line is None:
+            mtllib_line = k + 1
     v = _obj_rows(lines, np.flatnonzero(is_v), 2, 3)
     vt = _obj_rows(lines, np.flatnonzero(is_vt), 3, 2) if is_vt.any() else None
     vn = _obj_rows(lines, np.flatnonzero(is_vn), 3, 3) if is_vn.any() else None
@@ -190,6 +309,10 @@ def _obj_fast(data: bytes) -> MeshData:
     counts = _tokens_per_line(body)
     if len(counts) != len(f_lines) or (len(counts) and counts.min() < 3):
         raise _NotSimple
+    if len(counts) and counts.max() > MAX_FACE_CORNERS:  # said before a number of it is parsed
+        worst = int(np.argmax(counts))
+        raise MeshProblem(f"a face has {int(counts[worst]):,} corners, more than the {MAX_FACE_CORNERS:,} allowed",
+                          int(f_lines[worst]) + 1)
     first = body.split(None, 1)[0] if body.strip() else b""
     parts = first.count(b"/") + 1
     if parts > 3 or body.count(b"/") != (parts - 1) * int(counts.sum()):
@@ -200,7 +323,7 @@ def _obj_fast(data: bytes) -> MeshData:
         raise _NotSimple
     values = values.reshape(-1, parts)
     # Negative indices count back from the elements defined before the face's line.
-    per_corner_line = np.repeat(f_lines, counts)
+    per_corner_line = None
     columns = []
     for col, (rows, mask) in enumerate(((v, is_v), (vt, is_vt), (vn, is_vn))[:parts]):
         idx = values[:, col]
@@ -210,6 +333,8 @@ def _obj_fast(data: bytes) -> MeshData:
                 continue
             raise _NotSimple  # some corners with, some without: let the slow path say where
         if (idx < 0).any():
+            if per_corner_line is None:  # made only when needed: 8 bytes a corner
+                per_corner_line = np.repeat(f_lines, counts)
             before = np.searchsorted(np.flatnonzero(mask), per_corner_line)
             idx = np.where(idx < 0, idx + before, idx - 1)
         else:
@@ -220,7 +345,9 @@ def _obj_fast(data: bytes) -> MeshData:
         columns.append(idx)
     while len(columns) < 3:
         columns.append(None)
-    return _obj_assemble(v, vt, vn, columns, counts)
+    mesh = _obj_assemble(v, vt, vn, columns, counts, drop_degenerate)
+    mesh.mtllib_line = mtllib_line
+    return mesh
 
 
 def _numbers(text: bytes, dtype) -> np.ndarray:
@@ -252,31 +379,35 @@ def _obj_rows(lines, which: np.ndarray, skip: int, width: int) -> np.ndarray:
     return out
 
 
-def _obj_assemble(v, vt, vn, columns, counts) -> MeshData:
+def _obj_assemble(v, vt, vn, columns, counts, drop_degenerate: bool = True) -> MeshData:
     iv, it, inn = columns
     use_uv = it is not None and vt is not None
     use_n = inn is not None and vn is not None
     if not (use_uv or use_n):
-        return MeshData(v, _fans(iv, counts), polygons=len(counts))
+        faces, dropped = _fans(iv, counts, len(v) if drop_degenerate else None)
+        return MeshData(v, faces, polygons=len(counts), degenerate=dropped)
     # A vertex is a distinct (position, uv, normal) combination.
     key = np.stack([iv] + ([it] if use_uv else []) + ([inn] if use_n else []), 1)
     unique, corner = np.unique(key, axis=0, return_inverse=True)
     corner = corner.reshape(-1)
+    faces, dropped = _fans(corner, counts, len(unique) if drop_degenerate else None)
     return MeshData(
-        v[unique[:, 0]], _fans(corner, counts),
+        v[unique[:, 0]], faces,
         normals=vn[unique[:, -1]] if use_n else None,
         uvs=vt[unique[:, 1]] if use_uv else None,
         polygons=len(counts),
+        degenerate=dropped,
     )
 
 
-def _obj_slow(data: bytes) -> MeshData:
+def _obj_slow(data: bytes, drop_degenerate: bool = True) -> MeshData:
     """Line by line: the same result as the fast path, or a MeshProblem naming the first bad line."""
     v, vt, vn = [], [], []
     corners: list[tuple] = []
     counts = []
     pending = b""
     start_line = 0
+    mtllib_line = None
     for number, raw in enumerate(data.split(b"\n"), 1):
         line = pending + raw.rstrip(b"\r")
         if line.endswith(b"\\"):
@@ -331,19 +462,23 @@ def _obj_slow(data: bytes) -> MeshData:
             corners.extend(face)
             counts.append(len(face))
         elif key.startswith(b"#") or key in _OBJ_IGNORED:
+            if key == b"mtllib" and mtllib_line is None:
+                mtllib_line = at
             continue
         else:
             raise MeshProblem(f"unknown OBJ statement {_statement(key)}", at)
     vertices = np.array(v, np.float64).reshape(-1, 3)
     if not corners:
-        return MeshData(vertices, np.zeros((0, 3), np.int64))
+        return MeshData(vertices, np.zeros((0, 3), np.int64), mtllib_line=mtllib_line)
     iv = np.array([c[0] for c in corners], np.int64)
     columns = [iv]
     for k in (1, 2):
         have = [c[k] is not None for c in corners]
         columns.append(np.array([c[k] for c in corners], np.int64) if all(have) else None)
-    return _obj_assemble(vertices, np.array(vt, np.float64).reshape(-1, 2), np.array(vn, np.float64).reshape(-1, 3),
-                         columns, np.array(counts, np.int64))
+    mesh = _obj_assemble(vertices, np.array(vt, np.float64).reshape(-1, 2), np.array(vn, np.float64).reshape(-1, 3),
+                         columns, np.array(counts, np.int64), drop_degenerate)
+    mesh.mtllib_line = mtllib_line
+    return mesh
 
 
 def _statement(key: bytes) -> str:
@@ -420,50 +555,96 @@ def _sizes_say_triangles(fh, elements, size: int, face_prop: str) -> bool:
     return expected == size
 
 
-def _ply_where(exc) -> str:
-    """' (element 'face', row 3, property 'x')': where plyfile stopped, as far as it says."""
-    parts = []
-    for word, attribute in (("element", "element"), ("row", "row"), ("property", "prop")):
-        value = getattr(exc, attribute, None)
-        if value is not None:
-            value = getattr(value, "name", value)
-            parts.append(f"{word} {value}" if isinstance(value, int) else f"{word} {quote_key(value)}")
-    return f" ({', '.join(parts)})" if parts else ""
+# Bytes per item once read, beside each record's own: positions and the like become float64
+# (8 bytes a value), a face read as a list of unknown length is a numpy array of its own (about
+# 100 bytes of object), and each triangle costs what READ_TRIANGLE_BYTES says.
+_PLY_LIST_OBJECT_BYTES = 112
 
 
-def read_ply(path) -> MeshData:
-    """Parse a PLY file through plyfile: vertex x, y, z (nx, ny, nz; u, v or s, t) and face lists."""
-    from plyfile import PlyData, PlyParseError
+def _ply_read_bytes(fmt: str, elements, triangles_known: bool) -> int:
+    """The most memory reading these elements takes (plyfile's records, then our arrays)."""
+    need = 0
+    for name, count, props in elements:
+        record = sum(_PLY_SIZES.get(kind[0], 8) if kind[0] != "list" else 0 for _, kind in props)
+        lists = sum(1 for _, kind in props if kind[0] == "list")
+        each = record + 8 * len(props)  # the record, and a float64 copy of its values
+        if lists:
+            each += 3 * 8 + (0 if triangles_known else lists * _PLY_LIST_OBJECT_BYTES) + READ_TRIANGLE_BYTES
+        need += count * each
+    return need
 
-    try:
-        with open_regular_file(path) as fh:
-            fmt, elements = _ply_header(fh)
-            fh.seek(0, 2)
-            size = fh.tell()
-            # A header cannot promise more elements than the file has bytes for.
-            least = 0
-            for name, count, props in elements:
-                each = sum(2 if fmt == "ascii" else _PLY_SIZES.get(p[1][0] if p[1][0] != "list" else p[1][1], 1) for p in props)
-                least += count * max(1, each)
-            if least > size:
-                raise MeshProblem(f"the header promises more elements than the file's {size:,} bytes can hold")
-            names = {name: props for name, _, props in elements}
-            if "vertex" not in names or "face" not in names:
-                raise MeshProblem("a PLY mesh needs a 'vertex' and a 'face' element")
-            face_prop = next((p for p, t in names["face"] if t and t[0] == "list" and p in ("vertex_indices", "vertex_index")), None)
-            if face_prop is None:
-                raise MeshProblem("the 'face' element has no 'vertex_indices' list")
-            fh.seek(0)
-            triangles = fmt != "ascii" and _sizes_say_triangles(fh, elements, size, face_prop)
-            fh.seek(0)
+
+def _ply_failure(exc: BaseException) -> str:
+    """Why plyfile could not read a file, in words that quote none of its contents."""
+    from plyfile import PlyElementParseError, PlyHeaderParseError
+
+    if isinstance(exc, PlyElementParseError):
+        # plyfile's message is one of a few fixed phrases; the element's name is quoted by the key rule
+        element = getattr(exc, "element", None)
+        where = f"element {quote_key(element.name)}" if element is not None else "the data"
+        if getattr(exc, "row", None) is not None:
+            where += f", row {exc.row + 1}"
+        return f"{where}: {exc.message}"
+    if isinstance(exc, PlyHeaderParseError):  # its message may hold a header line: the line number only
+        return f"header line {exc.line} is not understood" if getattr(exc, "line", None) else "the header is not understood"
+    if isinstance(exc, OverflowError):
+        return "a count or value is out of range for its type"
+    if isinstance(exc, (EOFError,)):
+        return "the file ends before the data its header declares"
+    return f"the data does not match its header ({type(exc).__name__})"
+
+
+def read_ply(path, drop_degenerate: bool = True) -> MeshData:
+    """Parse a PLY file through plyfile: vertex x, y, z (nx, ny, nz; u, v or s, t) and face lists.
+
+    The header is read first: its counts must fit the file's size (a sparse file of zeros can
+    declare anything) and the memory budget before plyfile allocates a record. Whatever plyfile
+    raises on a malformed file becomes a MeshProblem."""
+    from plyfile import PlyData
+
+    with open_regular_file(path) as fh:
+        fmt, elements = _ply_header(fh)
+        size = os.fstat(fh.fileno()).st_size
+        if size > MAX_MESH_BYTES:
+            raise MeshProblem(f"the file is larger than the {MAX_MESH_BYTES:,} bytes allowed ({size:,} bytes)")
+        # A header cannot promise more elements than the file has bytes for: a binary value takes
+        # its type's size, an ASCII one at least a digit and a separator.
+        least = 0
+        for name, count, props in elements:
+            each = sum(2 if fmt == "ascii" else _PLY_SIZES.get(kind[0] if kind[0] != "list" else kind[1], 1) for _, kind in props)
+            least += count * max(1, each)
+        if least > size:
+            raise MeshProblem(f"the header promises more elements than the file's {size:,} bytes can hold "
+                              f"(they need at least {least:,})")
+        names = {name: props for name, _, props in elements}
+        if "vertex" not in names or "face" not in names:
+            raise MeshProblem("a PLY mesh needs a 'vertex' and a 'face' element")
+        face_prop = next((p for p, t in names["face"] if t and t[0] == "list" and p in ("vertex_indices", "vertex_index")), None)
+        if face_prop is None:
+            raise MeshProblem("the 'face' element has no 'vertex_indices' list")
+        fh.seek(0)
+        triangles = fmt != "ascii" and _sizes_say_triangles(fh, elements, size, face_prop)
+        problem = _budget_problem(_ply_read_bytes(fmt, elements, triangles), "reading the elements its header declares")
+        if problem:
+            raise MeshProblem(problem)
+        fh.seek(0)
+        try:
             ply = PlyData.read(fh, known_list_len={"face": {face_prop: 3}}) if triangles else PlyData.read(fh)
-            faces = ply["face"][face_prop]
-    except PlyParseError as exc:  # where it failed (element, row, property), never the text there
-        raise MeshProblem("the PLY file does not parse" + _ply_where(exc)) from None
-    except (ValueError, EOFError):
-        raise MeshProblem("the PLY file does not parse (a value is not what its header declares, or the file ends early)") from None
+            mesh = _ply_mesh(ply, face_prop, drop_degenerate)
+        except MeshProblem:
+            raise
+        except MemoryError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - plyfile raises what numpy and struct raise on bad data
+            raise MeshProblem(f"the PLY file does not parse: {_ply_failure(exc)}") from None
+    return mesh
+
+
+def _ply_mesh(ply, face_prop: str, drop_degenerate: bool) -> MeshData:
+    """The MeshData of a PlyData: vertex x, y, z (nx, ny, nz; u, v or s, t) and its faces."""
+    faces = ply["face"][face_prop]
     vert = ply["vertex"].data
-    fields = vert.dtype.names
+    fields = vert.dtype.names or ()
     for axis in "xyz":
         if axis not in fields:
             raise MeshProblem(f"the PLY vertices have no '{axis}' property")
@@ -474,12 +655,15 @@ def read_ply(path) -> MeshData:
         if u in fields and v in fields:
             uvs = np.stack([vert[u], vert[v]], 1).astype(np.float64)
             break
+    vertex_count = len(vertices) if drop_degenerate else None
     if faces.dtype != object:
-        f = faces.astype(np.int64).reshape(-1, 3)
-        return MeshData(vertices, f, normals, uvs, len(f))
+        corners = faces.astype(np.int64).reshape(-1)
+        f, dropped = _fans(corners, np.full(len(corners) // 3, 3), vertex_count)
+        return MeshData(vertices, f, normals, uvs, len(corners) // 3, dropped)
     counts = np.array([len(face) for face in faces], np.int64)
     corners = np.concatenate(faces).astype(np.int64) if len(faces) else np.zeros(0, np.int64)
-    return MeshData(vertices, _fans(corners, counts), normals, uvs, len(counts))
+    f, dropped = _fans(corners, counts, vertex_count)
+    return MeshData(vertices, f, normals, uvs, len(counts), dropped)
 
 
 def describe(mesh: MeshData) -> str:

@@ -249,6 +249,13 @@ def _prescan_yaml(text: str, file: str) -> None:
                 stack[-1][0] += 1
                 total += 1
             elif isinstance(event, yaml.AliasEvent):
+                if any(entry[1] == event.anchor for entry in stack):
+                    # The composer would make a node that contains itself, and every walk of it
+                    # (ours, and Python's recursion limit) would never end.
+                    raise SceneError([Diagnostic(
+                        file, *_mark_position(event.start_mark), (),
+                        f"the YAML alias *{event.anchor} refers to the node that contains it (recursive alias)",
+                    )])
                 size = sizes.get(event.anchor, 1)
                 # An alias repeats its anchor's whole subtree here: nesting counts after expansion.
                 height = heights.get(event.anchor, 0)

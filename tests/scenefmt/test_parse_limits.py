@@ -191,3 +191,64 @@ def test_a_set_argument_over_a_megabyte_is_refused_without_being_echoed():
     (diag,) = info.value.diagnostics
     assert diag.file == "--set description=xxxxxxxxxxxxxxxxxxxxxxxxxxxx..."
     assert diag.message == "the argument is 1,048,588 characters long, more than the 1,048,576 allowed"
+
+
+# ---------------------------------------------------------------------------------------------
+# 6. Writing a large scene as YAML
+
+
+def _many_spheres(n):
+    from scenefmt.scene import Scene
+
+    spheres = [
+        {"type": "sphere", "center": [i * 0.5, (i % 7) * 0.25, -1.0 - i % 3], "radius": 0.2 + (i % 5) * 0.01, "material": f"m{i % 3}"}
+        for i in range(n)
+    ]
+    materials = {
+        "m0": {"type": "lambertian", "albedo": [0.5, 0.5, 0.5]},
+        "m1": {"type": "metal", "albedo": [0.8, 0.8, 0.8], "fuzz": 0.1},
+        "m2": {"type": "dielectric", "ior": 1.5},
+    }
+    return Scene.model_validate({"version": 1, "materials": materials, "shapes": spheres})
+
+
+def test_ten_thousand_spheres_are_written_as_yaml_and_read_back_equal(tmp_path):
+    from scenefmt.validation import load
+    from scenefmt.writing import dump
+
+    scene = _many_spheres(10_000)
+    dump(scene, tmp_path / "many.yaml")
+    text = (tmp_path / "many.yaml").read_text()
+    lines = text.splitlines()
+    assert lines[:3] == ["version: 1", "materials:", "  m0: {type: lambertian, albedo: [0.5, 0.5, 0.5]}"]
+    assert lines[5:8] == [
+        "shapes:",
+        "- {type: sphere, center: [0, 0, -1], radius: 0.2, material: m0}",
+        "- {type: sphere, center: [0.5, 0.25, -2], radius: 0.21000000000000002, material: m1}",
+    ]
+    assert len(lines) == 6 + 10_000
+    assert load(tmp_path / "many.yaml").scene == scene
+
+
+@pytest.mark.parametrize("description", [
+    "two\nlines", "a NEL\x85here", "a line separator\u2028here", "tab\tand 'quotes' and \"doubles\"", "0E0", "# not a comment",
+    "a long description that goes on and on, " * 6,
+])
+def test_strings_that_yaml_could_misread_are_written_so_they_read_back(description):
+    from scenefmt.scene import Scene
+    from scenefmt.validation import loads
+    from scenefmt.writing import dumps
+
+    scene = Scene(description=description)
+    text = dumps(scene, "yaml")
+    assert loads(text).scene.description == description
+    assert max(len(line) for line in text.splitlines()) <= 125  # a long one folded near 120 characters, as before
+
+
+def test_the_generated_book_scenes_are_written_byte_for_byte_as_before():
+    # scenes/generate.py --check compares the files in scenes/ with what the writer makes now.
+    import pathlib
+
+    root = pathlib.Path(__file__).resolve().parents[2]
+    result = subprocess.run([sys.executable, str(root / "scenes" / "generate.py"), "--check"], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr

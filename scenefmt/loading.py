@@ -99,6 +99,10 @@ class SourceDocument:
     _values: dict[tuple, Position] = field(default_factory=dict, repr=False)
     _keys: dict[tuple, Position] = field(default_factory=dict, repr=False)
     _place: Optional[Callable[[], tuple[dict, dict]]] = field(default=None, repr=False)
+    # Where positions are not placed yet, a diagnostic finds the one it needs from the text's
+    # structure (`_JsonStructure`), made by this when first asked.
+    _find: Optional[Callable[[], Any]] = field(default=None, repr=False)
+    _structure: Any = field(default=None, repr=False)
 
     def _placed(self) -> None:
         if self._place is not None:
@@ -133,7 +137,18 @@ class SourceDocument:
                     return doc.locate(there + path[k:])
         return self, path
 
+    def _finder(self) -> Any:
+        """The structure that places a single path, while every position is not placed yet."""
+        if self._place is None or self._find is None:
+            return None
+        if self._structure is None:
+            self._structure = self._find()
+        return self._structure
+
     def _own_position(self, path: tuple, of_key: bool) -> Position:
+        finder = self._finder()
+        if finder is not None:
+            return finder.position(path, of_key)
         if of_key and path in self.keys:
             return self.keys[path]
         while path:
@@ -150,7 +165,8 @@ class SourceDocument:
     def written(self, path: tuple) -> bool:
         """Whether `path` itself is written (not only a parent of it)."""
         doc, there = self.locate(path)
-        return there in doc.values
+        finder = doc._finder()
+        return finder.written(there) if finder is not None else there in doc.values
 
     def base_dir_of(self, path: tuple) -> Path:
         """The folder relative file names at `path` are resolved from: that of the file it is written in."""
@@ -324,8 +340,8 @@ class _YamlBuilder:
 
     def document(self, loader) -> Any:
         stack: list[_Frame] = []
-        root = _EMPTY
         get_event = loader.get_event
+        values = self.doc._values  # YAML's positions are placed as it is read (no _place)
         while True:
             event = get_event()
             kind = type(event)
@@ -347,13 +363,21 @@ class _YamlBuilder:
                 else:
                     path, record, as_key = parent.path + (len(parent.value),), parent.record, False
                 if kind is yaml.ScalarEvent:
-                    self.counted(event.start_mark, 1)
+                    self.total += 1
+                    if self.total > self.limit:
+                        raise self.refuse(event.start_mark, too_many_values(self.limit))
                     if parent is not None:
                         parent.count += 1
-                    position = _mark_position(event.start_mark)
+                    mark = event.start_mark
+                    position = (mark.line + 1, mark.column + 1)
                     if record:
-                        self.record(path, position)
-                    value = self.scalar(loader, event, path)
+                        values[path] = position
+                        if self.open_anchors:
+                            self.log.append((path, position, False))
+                    text, tag = event.value, event.tag
+                    if tag is None or tag == "!":
+                        tag = _plain_tag(text) if event.implicit[0] else _STR_TAG
+                    value = text if tag is _STR_TAG else self.scalar(tag, text, mark, path)
                     if event.anchor is not None:
                         self.define(event.anchor, event.start_mark, _Anchor(value, 1, 0, event.start_mark, event.value, [((), position, False)]))
                 elif kind is yaml.AliasEvent:
@@ -492,13 +516,15 @@ class _YamlBuilder:
 
     # -- scalars --
 
-    def scalar(self, loader, event, path: tuple) -> Any:
-        tag, text = event.tag, event.value
-        if tag is None or tag == "!":
-            tag = loader.resolve(yaml.ScalarNode, text, event.implicit)
-        if tag == "tag:yaml.org,2002:str":
+    def scalar(self, tag: str, text: str, mark: Any, path: tuple) -> Any:
+        """The value of a scalar whose tag is resolved (`_plain_tag`)."""
+        if tag == "tag:yaml.org,2002:float":
+            try:
+                return float(text)
+            except ValueError:
+                pass  # .inf, .nan and their spellings, below
+        if tag == _STR_TAG:
             return text
-        mark = event.start_mark
         if tag == "tag:yaml.org,2002:null":
             return None
         if tag == "tag:yaml.org,2002:bool":
@@ -532,6 +558,17 @@ class _YamlBuilder:
 
 
 _EMPTY = object()  # a document with no value at all
+_STR_TAG = "tag:yaml.org,2002:str"
+# The core schema's resolvers by a plain scalar's first character ('' for the empty scalar): what
+# BaseResolver.resolve does for a plain scalar, without the per-call work done for path resolvers.
+_PLAIN_RESOLVERS = {first: tuple(resolvers) for first, resolvers in _CoreSchemaResolver.yaml_implicit_resolvers.items()}
+
+
+def _plain_tag(text: str) -> str:
+    for tag, regexp in _PLAIN_RESOLVERS.get(text[:1], ()):
+        if regexp.match(text):
+            return tag
+    return _STR_TAG
 
 
 _OPENERS = {"[": "]", "{": "}", '"': '"', "'": "'"}
@@ -604,6 +641,8 @@ class _JsonParser:
         self.doc = doc
         self.line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
         self.nodes = 0
+        self.limit = node_limit()
+        self.muted = 0  # inside a duplicate key's value: read, its positions not kept
         self.problems: list[Diagnostic] = []
 
     def where(self, offset: int) -> Position:
@@ -628,11 +667,12 @@ class _JsonParser:
 
     def value(self, i: int, path: tuple, depth: int) -> tuple[Any, int]:
         self.nodes += 1
-        if self.nodes > MAX_NODES:
-            raise self.fail(i, f"the document holds more than {MAX_NODES:,} values; refusing to load it", syntax=False)
+        if self.nodes > self.limit:
+            raise self.fail(i, too_many_values(self.limit, "json"), syntax=False)
         if depth > MAX_DEPTH:
             raise self.fail(i, f"nesting deeper than {MAX_DEPTH} levels", syntax=False)
-        self.doc.values[path] = self.where(i)
+        if not self.muted:
+            self.doc.values[path] = self.where(i)
         if i >= len(self.text):
             raise self.fail(i, "unexpected end of file, expected a value")
         ch = self.text[i]
@@ -683,15 +723,19 @@ class _JsonParser:
                 raise self.fail(i, "expected ':' after the key")
             i = self.skip(i + 1)
             if key in out:
-                line, col = self.doc.keys[path + (key,)]
-                self.problems.append(
-                    Diagnostic(self.doc.file, *self.where(key_at), path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})")
-                )
-                saved = dict(self.doc.values)
-                _, i = self.value(i, path + ("<duplicate>",), depth + 1)
-                self.doc.values = saved
+                if not self.muted:
+                    line, col = self.doc.keys[path + (key,)]
+                    self.problems.append(Diagnostic(
+                        self.doc.file, *self.where(key_at), path + (key,), f"duplicate key '{key}' (first given at line {line}, column {col})"
+                    ))
+                # Read, but its positions not kept: the first value's stay (a copy of every position
+                # made for each duplicate made many duplicates quadratic).
+                self.muted += 1
+                _, i = self.value(i, path + (key,), depth + 1)
+                self.muted -= 1
             else:
-                self.doc.keys[path + (key,)] = self.where(key_at)
+                if not self.muted:
+                    self.doc.keys[path + (key,)] = self.where(key_at)
                 out[key], i = self.value(i, path + (key,), depth + 1)
             i = self.skip(i)
             if self.text.startswith(",", i):
@@ -718,6 +762,129 @@ class _JsonParser:
             if self.text.startswith("]", i):
                 return out, i + 1
             raise self.fail(i, "expected ',' or ']'")
+
+
+_JSON_SPACE_BYTES = re.compile(rb"[^ \t\n\r]")
+
+
+class _JsonStructure:
+    """The brackets, commas, colons and opening quotes of a JSON text without backslashes, found
+    with numpy (a bracket is outside every string when an even number of quotes comes before it).
+
+    It answers two questions without reading the values: how many values the text holds, and,
+    given a key path, where that value (and its key) is written. The second lets a diagnostic
+    about a large file be placed in milliseconds, where placing every value (`_JsonParser`) cost
+    minutes and gigabytes for a few million."""
+
+    def __init__(self, text: str):
+        import numpy as np
+
+        self.raw = text.encode("utf-8")
+        raw = np.frombuffer(self.raw, np.uint8)
+        interesting = np.zeros(256, bool)
+        interesting[[ord(c) for c in '"[]{},:']] = True
+        pos = np.flatnonzero(interesting[raw])
+        ch = raw[pos]
+        quote = ch == ord('"')
+        opening = np.cumsum(quote, dtype=np.int64) & 1  # 1 at an opening quote and inside a string
+        keep = np.where(quote, opening == 1, opening == 0)
+        self.pos, self.ch = pos[keep], ch[keep]
+        step = np.zeros(len(self.ch), np.int8)
+        step[(self.ch == ord("[")) | (self.ch == ord("{"))] = 1
+        step[(self.ch == ord("]")) | (self.ch == ord("}"))] = -1
+        after = np.cumsum(step, dtype=np.int32)
+        self.depth = after - step  # open brackets before each symbol
+        self.deepest = int(after.max()) if len(after) else 0
+        self._items: dict[int, Any] = {}
+        self._members: dict[int, dict] = {}
+
+    def start(self, offset: int) -> int:
+        """The byte offset of the first character at or after `offset` that is not white space."""
+        m = _JSON_SPACE_BYTES.search(self.raw, offset)
+        return m.start() if m else len(self.raw)
+
+    def value_starts(self):
+        """Byte offsets of the symbols a value follows, in order: every comma and every bracket
+        that opens a non-empty list or object (the document's own value comes before them all)."""
+        import numpy as np
+
+        ch, pos = self.ch, self.pos
+        opener = (ch == ord("[")) | (ch == ord("{"))
+        # An opener is empty when the next symbol closes it with only white space between.
+        nxt = np.append(ch[1:], 0)
+        maybe_empty = np.flatnonzero(opener & ((nxt == ord("]")) | (nxt == ord("}"))))
+        empty = [i for i in maybe_empty.tolist() if self.start(int(pos[i]) + 1) == int(pos[i + 1])]
+        opener[empty] = False
+        return pos[opener | (ch == ord(","))]
+
+    def where(self, offset: int) -> Position:
+        line_start = self.raw.rfind(b"\n", 0, offset) + 1
+        return (self.raw.count(b"\n", 0, offset) + 1, len(self.raw[line_start:offset].decode("utf-8", "replace")) + 1)
+
+    def _inside(self, opener: int):
+        """The symbols directly inside the list or object whose bracket is at byte `opener`."""
+        import numpy as np
+
+        i = int(np.searchsorted(self.pos, opener))
+        level = self.depth[i] + 1
+        close = (self.depth[i + 1 :] == level) & ((self.ch[i + 1 :] == ord("]")) | (self.ch[i + 1 :] == ord("}")))
+        j = i + 1 + int(np.argmax(close))
+        sel = np.flatnonzero(self.depth[i + 1 : j] == level) + i + 1
+        return self.pos[sel], self.ch[sel]
+
+    def item(self, opener: int, index: int) -> Optional[int]:
+        """Byte offset of item `index` of the list opened at `opener`, or None."""
+        commas = self._items.get(opener)
+        if commas is None:
+            pos, ch = self._inside(opener)
+            commas = self._items[opener] = pos[ch == ord(",")]
+        if index > len(commas):
+            return None
+        at = self.start((opener if index == 0 else int(commas[index - 1])) + 1)
+        return None if index == 0 and self.raw[at : at + 1] == b"]" else at
+
+    def member(self, opener: int, key: str) -> Optional[tuple[int, int]]:
+        """Byte offsets of `key` and of its value in the object opened at `opener`, or None."""
+        members = self._members.get(opener)
+        if members is None:
+            pos, ch = self._inside(opener)
+            members = {}
+            previous = ord("{")
+            for k, (offset, c) in enumerate(zip(pos.tolist(), ch.tolist())):
+                if c == ord('"') and previous in (ord("{"), ord(",")):
+                    end = self.raw.index(b'"', offset + 1)
+                    name = self.raw[offset + 1 : end].decode("utf-8")
+                    colon = int(pos[k + 1])
+                    members.setdefault(name, (offset, self.start(colon + 1)))
+                previous = c
+            self._members[opener] = members
+        return members.get(key)
+
+    def walk(self, path: tuple) -> tuple[int, Optional[int], int]:
+        """(how many parts of `path` are written, the byte offset of the last one's key if it is
+        an object's member, the byte offset of its value)."""
+        value, key = self.start(0), None
+        for done, part in enumerate(path):
+            c = self.raw[value : value + 1]
+            found = None
+            if c == b"[" and isinstance(part, int) and not isinstance(part, bool) and part >= 0:
+                at = self.item(value, part)
+                found = None if at is None else (None, at)
+            elif c == b"{" and isinstance(part, str):
+                found = self.member(value, part)
+            if found is None:
+                return done, key, value
+            key, value = found
+        return len(path), key, value
+
+    def position(self, path: tuple, of_key: bool) -> Position:
+        done, key, value = self.walk(path)
+        if of_key and done == len(path) and key is not None:
+            return self.where(key)
+        return self.where(value)
+
+    def written(self, path: tuple) -> bool:
+        return self.walk(path)[0] == len(path)
 
 
 class _Unusual(Exception):
@@ -762,33 +929,50 @@ def _json_tables():
 _JSON_SYMBOL = None
 
 
+class _TooMany(Exception):
+    """The JSON text holds more values than `node_limit()`: the first one past it starts at `position`."""
+
+    def __init__(self, position: Position, limit: int):
+        self.position, self.limit = position, limit
+
+
 def _fast_json(text: str) -> Optional[Any]:
     """The data of `text` read by Python's C parser, or None where only `_JsonParser` can answer:
     a syntax error, a duplicate key, NaN or an infinity, a number too large for a float, an
-    integer of more than MAX_INTEGER_DIGITS digits, a backslash anywhere, nesting deeper than
-    MAX_DEPTH or possibly more than MAX_NODES values. Both parsers accept the same documents and read them to the same data;
-    the C one is about fifty times faster on a file of a million shapes."""
+    integer of more than MAX_INTEGER_DIGITS digits, a backslash anywhere, or nesting deeper than
+    MAX_DEPTH. Both parsers accept the same documents and read them to the same data; the C one is
+    about fifty times faster on a file of a million shapes. Raises `_TooMany` for a text of more
+    values than `node_limit()`, counted before any is read."""
     import numpy as np
 
     global _JSON_SYMBOL
     if "\\" in text:
         return None
     # Each value is the document, or follows an opener or a comma: at most this many (those in
-    # strings counted too, which only errs on the safe side).
-    if 1 + text.count("[") + text.count("{") + text.count(",") > MAX_NODES:
-        return None
-    if _JSON_SYMBOL is None:
-        _JSON_SYMBOL = _json_tables()
-    raw = np.frombuffer(text.encode("utf-8"), np.uint8)
-    # Without backslashes every '"' opens or closes a string: a bracket is outside one when an
-    # even number of quotes comes before it.
-    symbols = _JSON_SYMBOL[raw]
-    symbols = symbols[symbols != 0]
-    quote = symbols == 1
-    outside = ~quote & ((np.cumsum(quote, dtype=np.int64) & 1) == 0)
-    step = np.where(symbols[outside] == 2, np.int8(1), np.int8(-1))
-    if len(step) and int(np.cumsum(step, dtype=np.int64).max()) + 1 > MAX_DEPTH:  # the value at the deepest level is one more
-        return None
+    # strings counted too, and empty lists and objects, which only errs on the safe side). Past
+    # the limit they are counted exactly, outside strings.
+    limit = node_limit()
+    if 1 + text.count("[") + text.count("{") + text.count(",") > limit:
+        structure = _JsonStructure(text)
+        starts = structure.value_starts()
+        if 1 + len(starts) > limit:
+            raise _TooMany(structure.where(structure.start(int(starts[limit - 1]) + 1)), limit)
+        if structure.deepest + 1 > MAX_DEPTH:
+            return None
+        del structure, starts
+    else:
+        if _JSON_SYMBOL is None:
+            _JSON_SYMBOL = _json_tables()
+        raw = np.frombuffer(text.encode("utf-8"), np.uint8)
+        # Without backslashes every '"' opens or closes a string: a bracket is outside one when an
+        # even number of quotes comes before it.
+        symbols = _JSON_SYMBOL[raw]
+        symbols = symbols[symbols != 0]
+        quote = symbols == 1
+        outside = ~quote & ((np.cumsum(quote, dtype=np.int64) & 1) == 0)
+        step = np.where(symbols[outside] == 2, np.int8(1), np.int8(-1))
+        if len(step) and int(np.cumsum(step, dtype=np.int64).max()) + 1 > MAX_DEPTH:  # the value at the deepest level is one more
+            return None
     try:
         return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=_refuse, parse_float=_finite_float, parse_int=_short_int)
     except (ValueError, RecursionError, _Unusual):
@@ -797,7 +981,10 @@ def _fast_json(text: str) -> Optional[Any]:
 
 def parse_json(text: str, file: str) -> SourceDocument:
     doc = SourceDocument(file=file, data=None)
-    data = _fast_json(text) if len(text) > FAST_JSON_BYTES else None
+    try:
+        data = _fast_json(text) if len(text) > FAST_JSON_BYTES else None
+    except _TooMany as exc:
+        raise SceneError([Diagnostic(file, *exc.position, (), too_many_values(exc.limit, "json"))]) from None
     if data is None:
         doc.data = _JsonParser(text, doc).parse()
         return doc
@@ -809,6 +996,7 @@ def parse_json(text: str, file: str) -> SourceDocument:
 
     doc.data = data
     doc._place = place
+    doc._find = lambda: _JsonStructure(text)
     return doc
 
 

@@ -252,3 +252,56 @@ def test_the_generated_book_scenes_are_written_byte_for_byte_as_before():
     root = pathlib.Path(__file__).resolve().parents[2]
     result = subprocess.run([sys.executable, str(root / "scenes" / "generate.py"), "--check"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# 5. Documents too big for this machine's memory are refused at the value past the limit
+
+# Runs `rt validate` in a process that believes its machine has `memory` bytes, and prints the
+# seconds it took and its peak resident size in KiB.
+_SMALL_MACHINE = """
+import resource, sys, time
+import scenefmt.bounds
+scenefmt.bounds.physical_memory = lambda: {memory}
+from rt.cli import app
+started = time.perf_counter()
+try:
+    app(["validate", "{file}"])
+except SystemExit as exit:
+    status = exit.code
+print(time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+sys.exit(status)
+"""
+
+
+def test_the_value_limit_comes_from_the_memory_budget(monkeypatch):
+    from scenefmt import bounds, loading
+
+    monkeypatch.setattr(bounds, "physical_memory", lambda: 8 << 30)
+    # 75% of 8 GiB is the budget, half of it for reading, at 300 bytes a value.
+    assert loading.node_limit() == int(0.5 * int(0.75 * (8 << 30))) // 300 == 10_737_418
+    monkeypatch.setattr(bounds, "physical_memory", lambda: 1 << 40)
+    assert loading.node_limit() == loading.MAX_NODES
+
+
+@pytest.mark.parametrize("syntax", ["yaml", "json"])
+def test_a_document_past_the_memory_limit_is_refused_at_the_value_past_it(tmp_path, syntax):
+    # A machine of 80 MB may read 100,000 values; this file holds 600,000 in one flow list.
+    numbers = ",".join(str(i % 10) for i in range(600_000))  # 1.2 MB: JSON takes its fast path
+    if syntax == "yaml":
+        text, prefix = "version: 1\ndescription: [" + numbers + "]\n", "description: ["
+        first_past = 100_001 - 5  # the mapping, its two keys, the version and the list come first
+    else:
+        text, prefix = '{"version": 1, "description": [' + numbers + "]}\n", '{"version": 1, "description": ['
+        first_past = 100_001 - 3  # the mapping, its first value and the list come first
+    (tmp_path / f"big.{syntax}").write_text(text)
+    program = _SMALL_MACHINE.format(memory=80_000_000, file=f"big.{syntax}")
+    result = subprocess.run([sys.executable, "-c", program], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    err = clean_failure(result)
+    line = 2 if syntax == "yaml" else 1
+    column = len(prefix) + 2 * (first_past - 1) + 1
+    assert f"big.{syntax}:{line}:{column}: error: (top level): the document " in err
+    assert "more than 100,000 values, as many as this machine's memory allows reading (about 300 bytes a value, 28.6 MiB " \
+        "in all); refusing to load it" in err
+    seconds, peak_kib = result.stdout.split()
+    assert float(seconds) < 10 and int(peak_kib) < 200 * 1024

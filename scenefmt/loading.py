@@ -277,6 +277,10 @@ class _Frame:
 
 
 class _Anchor:
+    """What an alias repeats: the anchored value, its values and levels of nesting (for the bounds),
+    where it is written, its text if it is a scalar (which can be a key), and the positions inside
+    it, by key path from it."""
+
     __slots__ = ("value", "count", "height", "mark", "text", "log")
 
     def __init__(self, value, count, height, mark, text, log):
@@ -307,8 +311,8 @@ class _YamlBuilder:
     def problem(self, mark: Any, path: tuple, message: str) -> None:
         self.problems.append(Diagnostic(self.file, *_mark_position(mark), path, message))
 
-    def refuse(self, mark: Any, message: str) -> SceneError:
-        return SceneError([Diagnostic(self.file, *_mark_position(mark), (), message)])
+    def refuse(self, mark: Any, message: str, path: tuple = ()) -> SceneError:
+        return SceneError([Diagnostic(self.file, *_mark_position(mark), path, message)])
 
     def record(self, path: tuple, position: Position, is_key: bool = False) -> None:
         (self.doc.keys if is_key else self.doc.values)[path] = position
@@ -440,7 +444,7 @@ class _YamlBuilder:
     def key(self, parent: _Frame, event, kind, depth: int) -> None:
         parent.want_key = False
         if kind is yaml.AliasEvent:
-            anchor = self.anchored(event)
+            anchor = self.anchored(event, parent.path)
             self.expanded(event, anchor, depth, parent)
             if anchor.text is None:
                 self.problem(anchor.mark, parent.path, "keys must be plain names, not lists or mappings")
@@ -479,11 +483,11 @@ class _YamlBuilder:
         if anchor is not None:
             self.anchors[name] = anchor
 
-    def anchored(self, event) -> _Anchor:
+    def anchored(self, event, path: tuple) -> _Anchor:
         name = event.anchor
         if name in self.open_anchors:
             # Its node would contain itself: the composed tree never ended, nor any walk of it.
-            raise self.refuse(event.start_mark, f"the YAML alias *{name} refers to the node that contains it (recursive alias)")
+            raise self.refuse(event.start_mark, f"the YAML alias *{name} refers to the node that contains it (recursive alias)", path)
         anchor = self.anchors.get(name)
         if anchor is None:
             raise ComposerError(None, None, f"found undefined alias {name!r}", event.start_mark)
@@ -507,7 +511,7 @@ class _YamlBuilder:
             parent.height = max(parent.height, 1 + anchor.height)
 
     def alias(self, event, path: tuple, record: bool, depth: int, parent: Optional[_Frame]) -> Any:
-        anchor = self.anchored(event)
+        anchor = self.anchored(event, path)
         self.expanded(event, anchor, depth, parent)
         if record:
             for sub, position, is_key in anchor.log:

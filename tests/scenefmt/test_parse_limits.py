@@ -43,7 +43,7 @@ RECURSIVE_MESSAGE = "the YAML alias *r refers to the node that contains it (recu
 def test_a_recursive_alias_in_a_scene_file_is_placed_at_the_alias(tmp_path, command):
     (tmp_path / "scene.yaml").write_text(SCENE + RECURSIVE)
     err = clean_failure(rt(command, "scene.yaml", cwd=tmp_path))
-    assert f"scene.yaml:8:18: error: (top level): {RECURSIVE_MESSAGE}" in err
+    assert f"scene.yaml:8:18: error: description[0]: {RECURSIVE_MESSAGE}" in err
     assert not (tmp_path / "scene.png").exists()
 
 
@@ -51,7 +51,7 @@ def test_a_recursive_alias_in_an_included_file_names_that_file(tmp_path):
     (tmp_path / "lib.yaml").write_text("materials: {}\n" + RECURSIVE)
     (tmp_path / "scene.yaml").write_text(SCENE + "include: [lib.yaml]\n")
     err = clean_failure(rt("validate", "scene.yaml", cwd=tmp_path))
-    assert f"lib.yaml:2:18: error: (top level): {RECURSIVE_MESSAGE} (included from scene.yaml:8:11)" in err
+    assert f"lib.yaml:2:18: error: description[0]: {RECURSIVE_MESSAGE} (included from scene.yaml:8:11)" in err
 
 
 def test_a_recursive_alias_in_a_set_value_is_placed_in_the_argument(tmp_path):
@@ -63,7 +63,7 @@ def test_a_recursive_alias_in_a_set_value_is_placed_in_the_argument(tmp_path):
 def test_an_alias_deeper_inside_its_own_anchor_is_recursive_too(tmp_path):
     text = "version: 1\ndescription: &a {x: [1, {y: *a}]}\n"
     err = clean_failure(_validate_stdin(tmp_path, text))
-    assert "<stdin>:2:29: error: (top level): the YAML alias *a refers to the node that contains it" in err
+    assert "<stdin>:2:29: error: description.x[1].y: the YAML alias *a refers to the node that contains it" in err
 
 
 def _validate_stdin(cwd, text):

@@ -103,8 +103,13 @@ _FORMAT_OPTION = typer.Option(
 
 
 def _check_stdin_use(files) -> None:
-    if sum(str(f) == "-" for f in files) > 1:
+    reads = sum(str(f) == "-" for f in files)
+    if reads > 1:
         typer.echo("error: standard input (-) can be read only once", err=True)
+        raise typer.Exit(2)
+    # Started with its standard input closed (`rt validate - <&-`), Python has no sys.stdin at all.
+    if reads and sys.stdin is None:
+        typer.echo("error: standard input is closed, so - names no scene", err=True)
         raise typer.Exit(2)
 
 

@@ -113,6 +113,25 @@ def memory_limit_text() -> str:
     return f"the {gib(limit)} allowed on this machine ({MEMORY_SHARE:.0%} of its {gib(physical_memory())} of memory)"
 
 
+# ----------------------------------------------------------------------------------------------
+# Documents: what reading a scene file costs before any of it is checked
+
+# Bytes a value of a document costs once read, at the peak of reading it: the value itself, its
+# place in its list or mapping, its key path and its line and column (kept for diagnostics).
+# Measured with tracemalloc while reading YAML: 245 a value for a flat list of numbers, 273 for
+# compact spheres (`{type: sphere, center: [x, y, z], radius: r, material: m}`, 12 values each);
+# the resident size grew by 243 a value refusing a list of 2,000,000 numbers. Rounded up.
+DOCUMENT_VALUE_BYTES = 300
+# The share of the memory budget that reading a document may take: what is read stays alive
+# (diagnostics point into it) beside the models, the graph and the renderer's tables made from it.
+DOCUMENT_SHARE = 0.5
+
+
+def document_value_limit() -> int:
+    """The most values a document may hold on this machine."""
+    return int(DOCUMENT_SHARE * memory_limit()) // DOCUMENT_VALUE_BYTES
+
+
 def gib(n: float) -> str:
     if n >= 1 << 30:
         return f"{n / (1 << 30):.1f} GiB"

@@ -20,7 +20,7 @@ from .errors import data_path, diagnostics_from
 from .files import reading_within
 from .graph import SceneGraph, build_graph, graph_problems
 from .includes import resolve_includes
-from .loading import SourceDocument, parse_file, parse_stream, parse_text, paused_gc
+from .loading import STDIN_NAME, SourceDocument, parse_file, parse_stream, parse_text, paused_gc
 from .overrides import apply_overrides
 from .scene import Scene
 from .shapes import SphereColumns, plain_spheres
@@ -171,5 +171,7 @@ def load_source(path, overrides: Iterable[str] = (), syntax: Optional[str] = Non
     import sys
 
     if str(path) == "-":
+        if sys.stdin is None:  # the process was started with its standard input closed
+            raise SceneError([Diagnostic(STDIN_NAME, 1, 1, (), "standard input is closed, so - names no scene")])
         return load_stream(sys.stdin.buffer, overrides, syntax, allow_paths)
     return load(path, overrides, syntax, allow_paths)

@@ -65,10 +65,16 @@ shapes:
   materials.glass.ior=1.33 --set 'shapes[2].center=[0, 1, 0]'`. `VALUE` is read as YAML and
   checked like a value in the file; an error names the argument, with the column within it:
   `--set image.width=100.5:1:13: error: image.width: expected a valid integer, found 100.5`.
-  Missing mappings along the path are created; a list item must exist. `include` cannot be set.
+  Only the path's last key may be new (`--set 'materials.glass={type: dielectric, ior: 1.5}'`
+  adds a material); every key before it must be in the scene, or be a key of the format the file
+  left out (`camera.vfov=30` without a `camera:`), so a misspelt name is refused with a
+  did-you-mean (`materials: no key 'whit' here ...; did you mean 'white'?`) instead of creating
+  an entry. A list item must exist. A path has at most 64 parts and 4096 characters, an argument
+  at most 1 MiB. `include` cannot be set.
 - **Standard input.** `rt render -` and `rt validate -` read the scene from standard input
   (YAML or JSON, detected from the first character, or given by `--format yaml|json`); its
-  includes and image files are relative to the current folder.
+  includes and image files are relative to the current folder. Started with standard input
+  closed (`rt validate - <&-`), both say `error: standard input is closed` and exit 2.
 
 **What the JSON Schema checks, and what only `rt validate` can.** The schema in `schemas/`
 (for editors) holds every rule JSON Schema can express: types, ranges, whole numbers, required

@@ -206,6 +206,10 @@ def test_the_fast_json_path_finds_positions_only_when_asked(monkeypatch):
     doc = parse_text('{"shapes": [\n  {"radius": -1}\n]}', syntax="json")
     assert doc._place is not None
     assert doc.position(("shapes", 0, "radius")) == (2, 14)
+    assert doc.position(("shapes", 0, "radius"), of_key=True) == (2, 4)
+    assert doc.written(("shapes", 0)) and not doc.written(("shapes", 1))
+    assert doc._place is not None  # one path was found from the text's structure, not every one placed
+    assert doc.values[("shapes", 0, "radius")] == (2, 14)
     assert doc._place is None
 
 

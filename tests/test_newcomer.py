@@ -1,0 +1,184 @@
+"""The paths a newcomer takes (issue 29): what `rt` says on them, run as a user runs it.
+
+- the help of every command shows its text in square brackets ("rt-render[cluster]");
+- `--resume` with a state of another scene or image size says which, not that the file is large;
+  a state cut short or damaged is one clear line;
+- `rt watch` says nothing when a browser resets its connection;
+- `rt.render` of an unchanged scene a second time in one process does not load it again;
+- a copy of the renderer at another path says it is compiling when it is.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.test_cli import run_rt, write
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# -- help texts
+
+
+def _help(*command: str) -> str:
+    out = run_rt(*command, "--help", cwd=ROOT, env_extra={"COLUMNS": "200"})
+    assert out.returncode == 0, out.stderr
+    return " ".join(out.stdout.split())
+
+
+@pytest.mark.slow
+def test_render_help_shows_the_cluster_extra():
+    assert "pip install 'rt-render[cluster]'" in _help("render")
+
+
+@pytest.mark.slow
+def test_no_help_text_loses_words_in_square_brackets():
+    import re
+
+    import typer
+
+    from rt.cli import app
+
+    group = typer.main.get_command(app)
+    for name, command in [("", group), *group.commands.items()]:
+        texts = [command.help or "", command.epilog or ""] + [getattr(p, "help", None) or "" for p in command.params]
+        bracketed = [b for text in texts for b in re.findall(r"\[[^\]]*\]", " ".join(text.split()))]
+        shown = _help(*([name] if name else []))
+        for words in bracketed:
+            assert words in shown, f"rt {name} --help lost {words!r}"
+
+
+# -- resuming a state of another render
+
+SCENE_A = """
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40}
+image: {width: 200, aspect_ratio: 2, samples_per_pixel: 1, max_depth: 4, seed: 5}
+materials: {m: {type: lambertian, albedo: [0.6, 0.3, 0.2]}}
+shapes:
+  - {type: sphere, center: [0, -100, 0], radius: 100, material: m}
+  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: m}
+"""
+SCENE_B = SCENE_A.replace("[0.6, 0.3, 0.2]", "[0.2, 0.3, 0.6]")
+
+
+@pytest.fixture(scope="module")
+def saved_state(tmp_path_factory):
+    """A folder with scenes a.yaml and b.yaml and a.npz: a state of a.yaml at 200x100, 1 sample."""
+    folder = tmp_path_factory.mktemp("states")
+    write(folder, "a.yaml", SCENE_A)
+    write(folder, "b.yaml", SCENE_B)
+    out = run_rt("render", "a.yaml", "--save-state", "a.npz", cwd=folder)
+    assert out.returncode == 0, out.stderr
+    return folder
+
+
+def _refused(out, *words):
+    assert out.returncode == 1, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    for word in words:
+        assert word in lines[0], lines[0]
+    assert "larger than" not in lines[0]
+    return lines[0]
+
+
+@pytest.mark.slow
+def test_resuming_a_state_of_another_scene_and_size_says_so(saved_state):
+    # The state (about 960 KB) is far larger than a 16-pixel-wide state can be: the refusal
+    # used to say only that, not whose state it is.
+    out = run_rt("render", "b.yaml", "--width", "16", "--spp", "2", "--resume", "a.npz", cwd=saved_state)
+    line = _refused(out, "a.npz: this state does not match this render", "another scene",
+                    "it is of a 200x100 image, this render is 16x8")
+    assert "seed" not in line and "max depth" not in line and "integrator" not in line
+    assert not (saved_state / "b.png").exists()
+
+
+@pytest.mark.slow
+def test_resuming_at_another_size_seed_depth_or_integrator_names_each(saved_state):
+    out = run_rt("render", "a.yaml", "--width", "16", "--spp", "2", "--resume", "a.npz", cwd=saved_state)
+    line = _refused(out, "this state does not match this render: it is of a 200x100 image, this render is 16x8")
+    assert "another scene" not in line
+    out = run_rt("render", "a.yaml", "--spp", "2", "--seed", "9", "--max-depth", "6", "--integrator", "path",
+                 "--resume", "a.npz", cwd=saved_state)
+    _refused(out, "max depth 4 (now 6); seed 5 (now 9); integrator mis (now path)")
+
+
+@pytest.mark.slow
+def test_a_state_cut_short_or_damaged_is_refused_in_one_line(saved_state):
+    data = (saved_state / "a.npz").read_bytes()
+    (saved_state / "cut.npz").write_bytes(data[: len(data) // 2])
+    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "cut.npz", cwd=saved_state)
+    _refused(out, "cut.npz: not a saved render state, or one cut short")
+    middle = len(data) // 3  # inside the first array's data: the member's checksum fails
+    (saved_state / "bad.npz").write_bytes(data[:middle] + bytes(64) + data[middle + 64:])
+    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "bad.npz", cwd=saved_state)
+    _refused(out, "bad.npz: the member 'total.npy' cannot be read")
+
+
+# -- rt watch and connections reset by the browser
+
+BROKEN = "shapes:\n  - {type: sphere, radious: 1}\n"  # no render, so no kernel to load: the server alone
+
+
+def _reset(sock: socket.socket) -> None:
+    """Close `sock` with a reset (RST), as a browser that gives up on a request may."""
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+    sock.close()
+
+
+@pytest.mark.slow
+def test_rt_watch_passes_over_connections_reset_by_the_client(tmp_path):
+    write(tmp_path, "scene.yaml", BROKEN)
+    process = subprocess.Popen([sys.executable, "-m", "rt", "watch", "scene.yaml", "--port", "0"], cwd=tmp_path,
+                               stderr=subprocess.PIPE, text=True)
+    try:
+        banner = process.stderr.readline()
+        assert banner.startswith("rt watch: http://127.0.0.1:"), banner
+        port = int(banner.split("http://127.0.0.1:")[1].split("/")[0])
+        for _ in range(3):  # reset in the middle of a request line
+            sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+            sock.sendall(b"GET / HT")
+            time.sleep(0.1)
+            _reset(sock)
+        for path in ("/", "/app.js", "/events"):  # reset before the answer is written
+            sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+            sock.sendall(f"GET {path} HTTP/1.0\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+            _reset(sock)
+        time.sleep(1.0)
+        process.send_signal(signal.SIGINT)
+        err = process.communicate(timeout=30)[1]
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, err
+    assert "Traceback" not in err and "Exception occurred" not in err, err
+    assert err.rstrip().endswith("stopped")
+
+
+def test_rt_watch_reports_another_server_error_in_one_line(tmp_path):
+    from rt.watch import Watch, WatchOptions
+
+    said = []
+    watch = Watch(WatchOptions(tmp_path / "scene.yaml"), port=0, say=said.append)
+    try:
+        try:
+            raise ValueError("a bug\nin two lines")
+        except ValueError:
+            watch.server.handle_error(None, ("127.0.0.1", 5000))
+        try:
+            raise ConnectionResetError(104, "Connection reset by peer")
+        except ConnectionResetError:
+            watch.server.handle_error(None, ("127.0.0.1", 5001))
+    finally:
+        watch.server.server_close()
+    assert len(said) == 1 and "\n" not in said[0], said
+    assert said[0].startswith("rt watch: a request from 127.0.0.1 failed: ValueError: a bug")

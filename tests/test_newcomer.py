@@ -182,3 +182,105 @@ def test_rt_watch_reports_another_server_error_in_one_line(tmp_path):
         watch.server.server_close()
     assert len(said) == 1 and "\n" not in said[0], said
     assert said[0].startswith("rt watch: a request from 127.0.0.1 failed: ValueError: a bug")
+
+
+# -- rt.render keeps the scene it prepared
+
+BALL = """
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40}
+image: {width: 24, aspect_ratio: 2, samples_per_pixel: 2, max_depth: 4, seed: 3}
+include: [lib.yaml]
+shapes:
+  - {type: sphere, center: [0, -100, 0], radius: 100, material: ground}
+  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: ball}
+"""
+BALL_LIB = "materials:\n  ground: {type: lambertian, albedo: [0.5, 0.5, 0.5]}\n  ball: {type: lambertian, albedo: [0.8, 0.2, 0.2]}\n"
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """rt.api with its loads and flattenings counted: {"load": n, "flatten": n}."""
+    import rt.api
+    import rt.render_job
+
+    rt.api.forget_prepared_scenes()
+    calls = {"load": 0, "flatten": 0}
+    load, flatten = rt.api.load, rt.render_job.flatten
+
+    def counting_load(*args, **kw):
+        calls["load"] += 1
+        return load(*args, **kw)
+
+    def counting_flatten(*args, **kw):
+        calls["flatten"] += 1
+        return flatten(*args, **kw)
+
+    monkeypatch.setattr(rt.api, "load", counting_load)
+    monkeypatch.setattr(rt.render_job, "flatten", counting_flatten)
+    yield calls
+    rt.api.forget_prepared_scenes()
+
+
+def _bump(path: Path) -> None:
+    """Give `path` a later modification time than it has, whatever the clock's resolution."""
+    info = path.stat()
+    os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns + 2_000_000_000))
+
+
+@pytest.mark.slow
+def test_rendering_an_unchanged_scene_file_again_skips_loading_it(tmp_path, counted):
+    import rt
+    import rt.api
+
+    scene = write(tmp_path, "ball.yaml", BALL)
+    lib = write(tmp_path, "lib.yaml", BALL_LIB)
+    first = rt.render(scene)
+    second = rt.render(str(scene))
+    assert counted == {"load": 1, "flatten": 1}
+    assert np.array_equal(first.array, second.array)
+    # Other options of the render itself (samples, seed) keep the prepared scene.
+    rt.render(scene, spp=1, seed=4)
+    assert counted == {"load": 1, "flatten": 1}
+    # The same scene prepared from scratch renders the very same image.
+    rt.api.forget_prepared_scenes()
+    assert np.array_equal(rt.render(scene).array, first.array)
+    assert counted == {"load": 2, "flatten": 2}
+
+    # A saved include is read again: the ball turns blue.
+    lib.write_text(BALL_LIB.replace("[0.8, 0.2, 0.2]", "[0.2, 0.2, 0.8]"))
+    _bump(lib)
+    blue = rt.render(scene)
+    assert counted == {"load": 3, "flatten": 3}
+    r, _, b = blue.array[6, 12]
+    assert b > r and not np.array_equal(blue.array, first.array)
+    # A new modification time alone is enough, and another width or integrator is another entry.
+    _bump(scene)
+    rt.render(scene)
+    assert counted["load"] == 4
+    rt.render(scene, width=16)
+    rt.render(scene, integrator="path")
+    assert counted["load"] == 6
+    rt.render(scene, width=16)  # the two latest are kept
+    assert counted["load"] == 6
+
+
+@pytest.mark.slow
+def test_a_dict_or_model_is_kept_by_its_content(tmp_path, counted, monkeypatch):
+    import yaml
+
+    import rt
+
+    monkeypatch.chdir(tmp_path)
+    data = yaml.safe_load(BALL)
+    data.pop("include")
+    data["materials"] = yaml.safe_load(BALL_LIB)["materials"]
+    first = rt.render(data)
+    assert np.array_equal(rt.render(dict(data)).array, first.array)
+    assert counted["flatten"] == 1
+    data["materials"]["ball"]["albedo"] = [0.2, 0.2, 0.8]  # changed in place: another scene
+    assert not np.array_equal(rt.render(data).array, first.array)
+    assert counted["flatten"] == 2
+    scene = rt.load(data).scene
+    rt.render(scene)
+    rt.render(scene)
+    assert counted["flatten"] == 3

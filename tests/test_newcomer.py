@@ -284,3 +284,65 @@ def test_a_dict_or_model_is_kept_by_its_content(tmp_path, counted, monkeypatch):
     rt.render(scene)
     rt.render(scene)
     assert counted["flatten"] == 3
+
+
+# -- a copy of the renderer at another path says it is compiling
+
+TINY = """
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0]}
+image: {width: 8, aspect_ratio: 1, samples_per_pixel: 1, max_depth: 2}
+materials: {m: {type: lambertian, albedo: [0.5, 0.5, 0.5]}}
+shapes:
+  - {type: sphere, center: [0, 0, 0], radius: 1, material: m}
+"""
+COMPILING = "compiling the renderer's"
+
+
+def _install_copy(folder: Path) -> Path:
+    """The packages' sources copied to `folder`, as a second installation of the same version."""
+    import shutil
+
+    for package in ("renderer", "rt", "scenefmt", "schemas"):
+        shutil.copytree(ROOT / package, folder / package, ignore=shutil.ignore_patterns("__pycache__"))
+    write(folder, "tiny.yaml", TINY)
+    return folder
+
+
+def _copy_env(cache: Path) -> dict:
+    env = dict(os.environ, XDG_CACHE_HOME=str(cache))
+    env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("PYTHONPATH", None)
+    return env
+
+
+@pytest.mark.slow
+def test_the_same_sources_at_another_path_say_they_compile(tmp_path):
+    cache = tmp_path / "cache"
+    first, second = _install_copy(tmp_path / "one"), _install_copy(tmp_path / "two")
+    env = _copy_env(cache)
+    where = subprocess.run([sys.executable, "-c", "import renderer; print(renderer.__file__)"], cwd=second, env=env,
+                           capture_output=True, text=True, check=True)
+    assert where.stdout.strip() == str(second / "renderer" / "__init__.py")  # `python -m rt` here runs the copy
+
+    def render(folder: Path, env=env) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "rt", "render", "tiny.yaml"], cwd=folder, env=env,
+                              capture_output=True, text=True, timeout=600)
+
+    out = render(first)
+    assert out.returncode == 0 and COMPILING in out.stderr, out.stderr
+    out = render(first)  # the control: compiled, so it says nothing
+    assert out.returncode == 0 and COMPILING not in out.stderr, out.stderr
+    # The same sources at another path: Numba's cache misses them, so it compiles and must say so.
+    # The message comes before the compile: stop the process once it has said it.
+    process = subprocess.Popen([sys.executable, "-m", "rt", "render", "tiny.yaml"], cwd=second, env=env,
+                               stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        said = ""
+        for line in process.stderr:
+            said += line
+            if COMPILING in line:
+                break
+    finally:
+        process.kill()
+        process.wait()
+    assert COMPILING in said, said

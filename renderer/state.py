@@ -175,11 +175,12 @@ class _BoundedReads:
 
 def describe_mismatch(saved: RenderKey, key: RenderKey) -> str:
     """What differs between the render a state holds and this one, in words (never the scene's text)."""
-    parts = []
+    of = []
     if saved.scene != key.scene:
-        parts.append("it is of another scene (or of this one before a change to it)")
+        of.append("another scene (or of this one before a change to it)")
     if (saved.width, saved.height) != (key.width, key.height):
-        parts.append(f"it is of a {saved.width}x{saved.height} image, this render is {key.width}x{key.height}")
+        of.append(f"a {saved.width}x{saved.height} image (this render is {key.width}x{key.height})")
+    parts = ["it is of " + " and of ".join(of)] if of else []
     for name, label in (("max_depth", "max depth"), ("seed", "seed"), ("integrator", "integrator")):
         if getattr(saved, name) != getattr(key, name):
             parts.append(f"{label} {getattr(saved, name)} (now {getattr(key, name)})")

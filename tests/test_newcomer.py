@@ -96,8 +96,8 @@ def test_resuming_a_state_of_another_scene_and_size_says_so(saved_state):
     # The state (about 960 KB) is far larger than a 16-pixel-wide state can be: the refusal
     # used to say only that, not whose state it is.
     out = run_rt("render", "b.yaml", "--width", "16", "--spp", "2", "--resume", "a.npz", cwd=saved_state)
-    line = _refused(out, "a.npz: this state does not match this render", "another scene",
-                    "it is of a 200x100 image, this render is 16x8")
+    line = _refused(out, "a.npz: this state does not match this render: it is of another scene (or of this one before a "
+                         "change to it) and of a 200x100 image (this render is 16x8)")
     assert "seed" not in line and "max depth" not in line and "integrator" not in line
     assert not (saved_state / "b.png").exists()
 
@@ -105,7 +105,7 @@ def test_resuming_a_state_of_another_scene_and_size_says_so(saved_state):
 @pytest.mark.slow
 def test_resuming_at_another_size_seed_depth_or_integrator_names_each(saved_state):
     out = run_rt("render", "a.yaml", "--width", "16", "--spp", "2", "--resume", "a.npz", cwd=saved_state)
-    line = _refused(out, "this state does not match this render: it is of a 200x100 image, this render is 16x8")
+    line = _refused(out, "this state does not match this render: it is of a 200x100 image (this render is 16x8)")
     assert "another scene" not in line
     out = run_rt("render", "a.yaml", "--spp", "2", "--seed", "9", "--max-depth", "6", "--integrator", "path",
                  "--resume", "a.npz", cwd=saved_state)
@@ -122,6 +122,26 @@ def test_a_state_cut_short_or_damaged_is_refused_in_one_line(saved_state):
     (saved_state / "bad.npz").write_bytes(data[:middle] + bytes(64) + data[middle + 64:])
     out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "bad.npz", cwd=saved_state)
     _refused(out, "bad.npz: the member 'total.npy' cannot be read")
+
+
+def test_a_state_of_a_larger_image_is_refused_by_its_key_after_reading_little(tmp_path):
+    import tracemalloc
+
+    from renderer.film import Film
+    from renderer.state import RenderKey, StateError, load_state, save_state
+
+    saved = RenderKey("ab" * 32, 600, 600, 50, 7)
+    save_state(tmp_path / "run.npz", Film(np.zeros((600, 600, 3)), np.zeros((600, 600, 3)), 1), saved)
+    tracemalloc.start()
+    try:
+        with pytest.raises(StateError) as excinfo:
+            load_state(tmp_path / "run.npz", RenderKey("ab" * 32, 64, 64, 8, 7, "path"))
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert str(excinfo.value) == (f"{tmp_path / 'run.npz'}: this state does not match this render: it is of a 600x600 "
+                                  "image (this render is 64x64); max depth 50 (now 8); integrator mis (now path)")
+    assert peak < 1_000_000  # the 8.6 MB file is not read: only its directory and key
 
 
 # -- rt watch and connections reset by the browser

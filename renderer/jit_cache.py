@@ -8,10 +8,17 @@ caches. Set NUMBA_CACHE_DIR to choose the place yourself.
 
 Numba reads its cache folder when a compiled function is defined, so `configure` must run
 before any module with compiled code is imported: each such module calls it at its top.
+
+Within that folder Numba keeps each source file's code under the file's full path, and checks
+the file's modification time and size: the same sources at another path (an editable install
+after a regular one, a second virtual environment) or copied anew (a reinstall) compile again.
+`installation_key` names exactly that, so the markers that say "compiled" (renderer/variants.py)
+are this installation's, and a render says it is compiling whenever it is.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -30,6 +37,26 @@ def source_version() -> str:
     for path in sorted(here.rglob("*.py")):
         digest.update(str(path.relative_to(here)).encode())
         digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+@functools.lru_cache(maxsize=None)
+def installation_key() -> str:
+    """A name for this installation's compiled code as Numba's disk cache finds it: the sources'
+    hash (`source_version`), the package's resolved folder, each source file's modification time
+    and size, and the processor Numba compiles for. It changes whenever Numba would compile again
+    rather than load from the cache, and not otherwise."""
+    import llvmlite.binding
+
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256(source_version().encode())
+    digest.update(os.fsencode(here))
+    for path in sorted(here.rglob("*.py")):
+        info = path.stat()
+        digest.update(f"\0{path.relative_to(here)}\0{info.st_mtime_ns}\0{info.st_size}".encode())
+    cpu = numba.config.CPU_NAME or llvmlite.binding.get_host_cpu_name()
+    features = numba.config.CPU_FEATURES or llvmlite.binding.get_host_cpu_features().flatten()
+    digest.update(f"\0{cpu}\0{features}".encode())
     return digest.hexdigest()[:16]
 
 

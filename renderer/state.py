@@ -6,8 +6,10 @@ fingerprint of the scene and the settings that shape the image; resuming with an
 is refused rather than mixing two different images.
 
 A state file comes from outside and its arrays go to the kernels, which index them without
-bounds checks, so it is read as hostile input (`load_state`): a regular file of bounded size,
-opened member by member as a zip archive; each member's declared size is checked against what
+bounds checks, so it is read as hostile input (`load_state`): a regular file, opened member by
+member as a zip archive, no read larger than a state of this render's image can need. Its saved
+key is read first, so a state of another scene or image size is refused by saying which; a file
+larger than this render's state can be is refused after that. Each member's declared size is checked against what
 the scene's image needs before a byte is decompressed, and decompression stops at that size;
 each array's header (shape, type, order) is checked before its data is read; the data must be
 finite, sums of squares non-negative, and the metadata exactly the fields and types written by
@@ -20,6 +22,7 @@ import hashlib
 import io
 import json
 import math
+import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -134,23 +137,87 @@ def _meta(raw: np.ndarray, where: str) -> dict:
     return meta
 
 
+class _BoundedReads:
+    """A state file as zipfile reads it, each read at most `most` bytes.
+
+    zipfile reads the central directory, and a stored member, in one read of the size the archive
+    declares; a file that declares gigabytes must cost no more memory than a real state of this
+    render's image could. The file itself may be larger than that (a state of a larger image):
+    only the few bytes that say what it is are read then, so the refusal can say so.
+    """
+
+    def __init__(self, fh, most: int, where: str):
+        self._fh = fh
+        self._most = most
+        self._where = where
+        self.size = os.fstat(fh.fileno()).st_size
+
+    def read(self, n: int = -1) -> bytes:
+        left = max(0, self.size - self._fh.tell())
+        n = left if n is None or n < 0 else min(n, left)
+        if n > self._most:
+            raise StateError(f"{self._where}: not a saved render state (it asks to read {n:,} bytes at once, more than "
+                             f"the {self._most:,} a state of this render's image can need)")
+        return self._fh.read(n)
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self._fh.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._fh.tell()
+
+    def seekable(self) -> bool:
+        return True
+
+    def close(self) -> None:
+        pass  # the caller closes the file
+
+
+def describe_mismatch(saved: RenderKey, key: RenderKey) -> str:
+    """What differs between the render a state holds and this one, in words (never the scene's text)."""
+    of = []
+    if saved.scene != key.scene:
+        of.append("another scene (or of this one before a change to it)")
+    if (saved.width, saved.height) != (key.width, key.height):
+        of.append(f"a {saved.width}x{saved.height} image (this render is {key.width}x{key.height})")
+    parts = ["it is of " + " and of ".join(of)] if of else []
+    for name, label in (("max_depth", "max depth"), ("seed", "seed"), ("integrator", "integrator")):
+        if getattr(saved, name) != getattr(key, name):
+            parts.append(f"{label} {getattr(saved, name)} (now {getattr(key, name)})")
+    return "this state does not match this render: " + "; ".join(parts)
+
+
 def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES) -> Film:
-    """The film saved at `path`; StateError (a ValueError) if it is not a state this render can continue."""
-    from scenefmt.files import FileProblem, read_regular_file
+    """The film saved at `path`; StateError (a ValueError) if it is not a state this render can continue.
+
+    The state's own key is read first (a few kilobytes, whatever the file's size), so a state of
+    another scene or image size is refused by saying which, not by its size."""
+    from scenefmt.files import FileProblem, describe_os_error, open_regular_file
 
     where = str(path)
+    try:
+        fh = open_regular_file(path)
+    except FileProblem as exc:
+        raise StateError(f"{where}: {exc}") from None
+    try:
+        with fh:
+            return _read_state(fh, where, key, max_samples)
+    except OSError as exc:
+        raise StateError(f"{where}: cannot read the file: {describe_os_error(exc)}") from None
+
+
+def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
     pixels = key.width * key.height * 3
     array_bytes = pixels * 8 + _HEADER_BYTES
     # Stored members can be no larger than their data; compressed ones are smaller still.
     limit = 2 * array_bytes + _META_BYTES * 8 + 64 * 1024
+    source = _BoundedReads(fh, max(limit, 1 << 17), where)  # zipfile looks for its directory in the last 64 KiB
     try:
-        raw = read_regular_file(path, limit)
-    except FileProblem as exc:
-        raise StateError(f"{where}: {exc}") from None
-    try:
-        archive = zipfile.ZipFile(io.BytesIO(raw))
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, OSError, EOFError, ValueError) as exc:
-        raise StateError(f"{where}: not a saved render state (not a zip archive: {exc})") from None
+        archive = zipfile.ZipFile(source)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError, ValueError) as exc:
+        if isinstance(exc, StateError):
+            raise
+        raise StateError(f"{where}: not a saved render state, or one cut short (not a zip archive: {exc})") from None
     with archive:
         members = {info.filename: info for info in archive.infolist()}
         expected = {"total.npy", "total_sq.npy", "meta.npy"}
@@ -158,14 +225,12 @@ def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES)
             raise StateError(f"{where}: not a saved render state (it holds {sorted(members)[:8]}, not {sorted(expected)})")
         meta_raw = _parse_npy(_read_member(archive, members["meta.npy"], _META_BYTES * 4 + _HEADER_BYTES, where), "meta", where, (), "U")
         meta = _meta(meta_raw, where)
-        if meta["version"] != STATE_VERSION:
-            raise StateError(f"{where}: a render state of an unknown version ({meta['version']})")
         saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"], meta["integrator"])
         if saved != key:
-            diffs = [f"{name} {getattr(saved, name)} (now {getattr(key, name)})" for name in key.__dict__
-                     if getattr(saved, name) != getattr(key, name)]
-            shown = ", ".join("the scene file changed" if d.startswith("scene ") else d for d in diffs)
-            raise StateError(f"{where}: the saved render does not match this one: {shown}")
+            raise StateError(f"{where}: {describe_mismatch(saved, key)}")
+        if source.size > limit:
+            raise StateError(f"{where}: the file is larger than the {limit:,} bytes a state of a {key.width}x{key.height} "
+                             f"image can need ({source.size:,} bytes)")
         samples = meta["samples"]
         if not 1 <= samples <= max_samples:
             raise StateError(f"{where}: it holds {samples} samples per pixel; a state holds 1 to {max_samples:,}")

@@ -133,11 +133,13 @@ KERNEL_KINDS = ("kernel", "tile")
 
 
 def _ready_marker(features: KernelFeatures, kind: str = "kernel") -> Path:
-    """A file of ours, beside the kernel's cached machine code, that says it was compiled."""
+    """A file of ours, beside the kernel's cached machine code, that says it was compiled by this
+    installation: Numba keys its cache by each source file's path and modification time, so the
+    same sources installed elsewhere (or again) compile anew and must not find this marker."""
     if kind not in KERNEL_KINDS:
         raise ValueError(f"unknown kernel kind {kind!r}: expected one of {', '.join(KERNEL_KINDS)}")
     folder = jit_cache.configure() if features.is_general else _variant_cache_dir(features.tag)
-    return Path(folder or tempfile.gettempdir()) / f"rt-{kind}-ready-{features.tag}"
+    return Path(folder or tempfile.gettempdir()) / f"rt-{kind}-ready-{features.tag}-{jit_cache.installation_key()}"
 
 
 def is_compiled(features: KernelFeatures, kind: str = "kernel") -> bool:

@@ -2,7 +2,8 @@
 
 A process that calls `rt.render` more than once pays for imports and kernel loading once: the
 second call of a small image takes milliseconds, not the second or so of a new `rt render`
-process. The steps are those of `rt render` (`rt.render_job.flatten`, `option_problem`,
+process. It also keeps the scenes it prepared last (`_prepare`), so rendering an unchanged scene
+again skips loading and flattening it. The steps are those of `rt render` (`rt.render_job.flatten`, `option_problem`,
 `sample_target`, `render_scene`), so the same scene, seed and sample count give the same image
 bit for bit as `rt render --hdr out.pfm`.
 
@@ -12,6 +13,9 @@ Nothing heavy is imported here at module level: `import rt` stays as quick as `r
 from __future__ import annotations
 
 import math
+import os
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Optional, Union
@@ -54,9 +58,7 @@ def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] 
     for a dict or a model) and the folders in `allow_paths`, as `rt render --allow-path`. Raises
     `rt.SceneError`, whose `.diagnostics` list every problem with its file, line, column and key path.
     """
-    from scenefmt.files import reading_within
-    from scenefmt.loading import SourceDocument
-    from scenefmt.validation import LoadedScene, allowed_folders, check_document, compose
+    from scenefmt.validation import LoadedScene
     from scenefmt.validation import load as load_file
 
     if isinstance(scene, LoadedScene):
@@ -65,19 +67,32 @@ def load(scene: SceneLike, overrides: Iterable[str] = (), syntax: Optional[str] 
         return scene
     if isinstance(scene, (str, Path)):
         return load_file(scene, overrides, syntax, allow_paths)
+    return _load_data(_scene_data(scene), overrides, allow_paths)
+
+
+def _load_data(data: Any, overrides: Iterable[str] = (), allow_paths: Iterable[Union[str, Path]] = ()) -> "LoadedScene":
+    """The checked scene of a model's or a dict's data (`_scene_data`)."""
+    from scenefmt.files import reading_within
+    from scenefmt.loading import SourceDocument
+    from scenefmt.validation import allowed_folders, check_document, compose
+
+    # Relative file names in it (textures, meshes, includes) resolve from the current folder,
+    # which is also where its files may be read from (with `allow_paths`).
+    with reading_within(allowed_folders(Path.cwd(), allow_paths)):
+        return check_document(compose(SourceDocument(DICT_NAME, data, base_dir=Path.cwd()), overrides))
+
+
+def _scene_data(scene) -> Any:
+    """A `scenefmt` Scene model or a dict of a scene, as the data a scene file loads to."""
     from pydantic import BaseModel
 
     if isinstance(scene, BaseModel):
         from scenefmt.writing import to_data
 
-        data = to_data(scene)
-    elif isinstance(scene, dict):
-        data = _plain(scene)
-    else:
-        raise TypeError(f"expected a scene file name, a scenefmt Scene or a dict, not {type(scene).__name__}")
-    # Relative file names in it (textures, meshes, includes) resolve from the current folder.
-    with reading_within(allowed_folders(Path.cwd(), allow_paths)):
-        return check_document(compose(SourceDocument(DICT_NAME, data, base_dir=Path.cwd()), overrides))
+        return to_data(scene)
+    if isinstance(scene, dict):
+        return _plain(scene)
+    raise TypeError(f"expected a scene file name, a scenefmt Scene or a dict, not {type(scene).__name__}")
 
 
 @dataclass
@@ -224,6 +239,119 @@ def _check_int(name: str, value: Optional[int], low: int, high: int) -> None:
         raise ValueError(f"{name}={value!r}: expected a whole number from {low} to {high}")
 
 
+# The scenes `rt.render` keeps prepared (loaded, checked and flattened) for its next calls: a second
+# render of an unchanged scene skips the load and the flattening, most of a large scene's time.
+# A scene file's entry lasts while every file its load read (the scene, its includes, textures,
+# meshes) keeps its device, inode, size and modification time; a dict's or a model's is keyed by
+# its content. At most PREPARED_SCENES entries and PREPARED_BYTES of tables are kept.
+PREPARED_SCENES = 2
+PREPARED_BYTES = 1 << 30
+
+
+@dataclass
+class _Prepared:
+    files: tuple  # (path, _signature(path)) of every file the load read
+    loaded: "LoadedScene"
+    graph: Any
+    flat: Any
+    reads: list  # the paths, for a cluster's workers
+    nbytes: int  # of the flat tables
+
+
+_prepared: "OrderedDict[tuple, _Prepared]" = OrderedDict()
+_prepared_lock = threading.Lock()
+
+
+def _signature(path: str) -> Optional[tuple]:
+    try:
+        info = os.stat(path)
+    except OSError:
+        return None
+    return (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
+
+
+def _data_key(data: Any) -> Optional[str]:
+    """A hash of a dict's or a model's data; None if it is not plain data (then it is not kept).
+
+    Pickled rather than written as JSON: the bytes are exactly the data, so 1 and 1.0, or the key
+    1 and the key "1", which JSON writes alike and a scene may not accept alike, stay apart."""
+    import hashlib
+    import pickle
+
+    try:
+        return hashlib.sha256(pickle.dumps(data, protocol=4)).hexdigest()
+    except (pickle.PicklingError, TypeError, AttributeError, ValueError, RecursionError):
+        return None
+
+
+def _cached(key: Optional[tuple]) -> Optional[_Prepared]:
+    """The prepared scene under `key` if none of the files it read has changed since."""
+    if key is None:
+        return None
+    with _prepared_lock:
+        entry = _prepared.get(key)
+    if entry is None:
+        return None
+    if any(_signature(path) != seen for path, seen in entry.files):
+        with _prepared_lock:
+            if _prepared.get(key) is entry:
+                del _prepared[key]
+        return None
+    with _prepared_lock:
+        if key in _prepared:
+            _prepared.move_to_end(key)
+    return entry
+
+
+def _keep(key: tuple, entry: _Prepared) -> None:
+    with _prepared_lock:
+        _prepared[key] = entry
+        _prepared.move_to_end(key)
+        while _prepared and (len(_prepared) > PREPARED_SCENES or sum(e.nbytes for e in _prepared.values()) > PREPARED_BYTES):
+            _prepared.popitem(last=False)  # the least recently used first (this one last, if it alone is too big)
+
+
+def forget_prepared_scenes() -> None:
+    """Drop the scenes `rt.render` keeps prepared (to free their memory at once)."""
+    with _prepared_lock:
+        _prepared.clear()
+
+
+def _prepare(scene: SceneLike, overrides: tuple, width: Optional[int], integrator: Optional[str],
+             allow_paths: tuple = ()) -> _Prepared:
+    """The scene loaded, checked and flattened with these options: kept from an earlier call when
+    its source is unchanged (see PREPARED_SCENES), else prepared now and kept."""
+    import numpy as np
+
+    from scenefmt.files import recording_reads
+    from scenefmt.validation import LoadedScene
+
+    from .render_job import flatten
+
+    data = key = None
+    if isinstance(scene, (str, Path)):
+        key = ("file", os.path.abspath(scene))
+    elif not isinstance(scene, LoadedScene):  # a loaded scene may have been changed in place: never kept
+        data = _scene_data(scene)
+        digest = _data_key(data)
+        # Relative file names in the data resolve from the current folder.
+        key = ("data", digest, os.getcwd()) if digest is not None else None
+    if key is not None:  # the folders a scene may read decide whether it loads: they are part of the key
+        key += (overrides, width, integrator, tuple(os.path.realpath(p) for p in allow_paths))
+    entry = _cached(key)
+    if entry is not None:
+        return entry
+    with recording_reads() as reads:  # the files a cluster's workers need, and those the entry depends on
+        loaded = load(scene, overrides, allow_paths=allow_paths) if data is None else _load_data(data, overrides, allow_paths)
+        graph, flat = flatten(loaded, width, integrator)
+    files = tuple((path, _signature(path)) for path in dict.fromkeys(reads))
+    nbytes = sum(a.nbytes for a in flat if isinstance(a, np.ndarray))
+    entry = _Prepared(files, loaded, graph, flat, list(reads), nbytes)
+    if key is not None:
+        _keep(key, entry)
+    return entry
+
+
 def render(
     scene: SceneLike,
     *,
@@ -264,7 +392,7 @@ def render(
     from renderer.flat import INTEGRATORS, Frame
     from renderer.variants import KERNEL_CHOICES, features_of
 
-    from .render_job import Progress, flatten, max_threads, option_problem, render_scene, sample_target
+    from .render_job import Progress, max_threads, option_problem, render_scene, sample_target
 
     _check_int("spp", spp, 1, 1_000_000)
     _check_int("width", width, 1, 32768)
@@ -282,11 +410,9 @@ def render(
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
 
-    from scenefmt.files import recording_reads
-
-    with recording_reads() as reads:  # the files a cluster's workers need
-        loaded = load(scene, overrides, allow_paths=allow_paths)
-        graph, flat = flatten(loaded, width, integrator)
+    overrides = tuple(overrides)
+    prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
+    loaded, graph, flat, reads = prepared.loaded, prepared.graph, prepared.flat, prepared.reads
     frame = Frame.of(graph)
     target = sample_target(spp, frame, budget is not None or noise is not None)
     connection = package = None
@@ -294,7 +420,7 @@ def render(
         from .cluster import connect, package_scene
 
         is_file = isinstance(scene, (str, Path)) and str(scene) != "-"
-        package = package_scene(str(scene) if is_file else None, reads, loaded, flat, tuple(overrides), None, width, integrator)
+        package = package_scene(str(scene) if is_file else None, reads, loaded, flat, overrides, None, width, integrator)
         connection = connect(cluster)
     bar = Progress(target, budget, noise) if progress is True else None
 

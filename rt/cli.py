@@ -19,6 +19,10 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # Help texts are plain text: rich markup would take "[cluster]" in "pip install 'rt-render[cluster]'"
+    # (or any other word in square brackets) for a style and print nothing in its place.
+    rich_markup_mode=None,
+    context_settings={"max_content_width": 120},  # plain help wraps at 80 columns unless told it may use more
 )
 
 

@@ -407,6 +407,18 @@ class _Server(ThreadingHTTPServer):
     board: Board
     page: bytes
     allowed_hosts: Optional[set]
+    say: Callable[[str], None] = staticmethod(lambda message: None)
+
+    def handle_error(self, request, client_address) -> None:
+        """A request that failed. A browser that closes a tab, reloads or gives up on a request
+        resets its connection at any point: that is no error, so it is passed over in silence.
+        Anything else is one line in the terminal (the server goes on), never a traceback."""
+        exc = sys.exc_info()[1]
+        if isinstance(exc, (ConnectionError, TimeoutError)):
+            return
+        from scenefmt.diagnostics import escape_control
+
+        self.say(escape_control(f"rt watch: a request from {client_address[0]} failed: {type(exc).__name__}: {exc}"))
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -487,6 +499,7 @@ class Watch:
         self.previewer = Previewer(opts, self.board, say)
         self.server = _Server((host, port), _Handler, bind_and_activate=True)
         self.server.board = self.board
+        self.server.say = say
         from html import escape
 
         self.server.page = PAGE.format(title=escape(str(opts.scene))).encode()

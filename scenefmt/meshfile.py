@@ -411,7 +411,11 @@ def _sizes_say_triangles(fh, elements, size: int, face_prop: str) -> bool:
 
 def read_ply(path) -> MeshData:
     """Parse a PLY file through plyfile: vertex x, y, z (nx, ny, nz; u, v or s, t) and face lists."""
-    from plyfile import PlyData, PlyParseError
+    try:
+        from plyfile import PlyData, PlyParseError
+    except ImportError:  # a dependency, but an environment can still lack it: an error, not a traceback
+        raise MeshProblem("reading PLY needs the plyfile package, which is not installed: pip install plyfile "
+                          "(or convert the mesh to .obj)") from None
 
     try:
         with open_regular_file(path) as fh:

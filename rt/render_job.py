@@ -575,13 +575,19 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
             say(f"error: {name} names one file: render one scene at a time to use it", err=True)
             raise Stop(2)
     folder = opts.output
-    if folder is not None and not folder.is_dir():
+    # A missing folder is made below; an existing file, or a name that reads as an image, is a mistake.
+    if folder is not None and not folder.is_dir() and (folder.exists() or folder.suffix.lower() in (".png", ".exr", ".pfm")):
         raise fail(f"error: -o {folder}: with several scenes, -o names the folder to write their images in, and this is not one")
     hdr_suffix = None
     if opts.hdr is not None:
         hdr_suffix = "." + str(opts.hdr).lower().lstrip(".")
         if hdr_suffix not in (".exr", ".pfm"):
             raise fail(f"error: --hdr {opts.hdr}: with several scenes, give the format only: --hdr exr or --hdr pfm")
+        if hdr_suffix == ".exr":  # once for the batch, rather than once for each scene
+            from scenefmt.hdr_files import EXR_MISSING, exr_available
+
+            if not exr_available():
+                raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
     from .outputs import file_key
 
     # An image may not replace a scene of the batch: one rendered earlier would be lost, a later one changed.
@@ -601,13 +607,18 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
                 raise fail(f"error: the image {image} of {scene} is the scene file {scene_files[file_key(image)]} of this batch: "
                            "rendering would overwrite it; write the images elsewhere with -o DIR")
         out.append(dataclasses.replace(opts, scene=Path(scene), output=png, hdr=hdr))
+    if folder is not None and not folder.is_dir():  # `-o renders/` on a fresh checkout
+        try:  # after every other check, so that a refused batch leaves nothing behind
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:  # a parent that is a file, a read-only place
+            raise fail(f"error: -o {folder}: cannot create the folder ({exc.strerror or exc})")
     return out
 
 
 def run_batch(opts: RenderOptions, scenes: list) -> None:
     """Render several scenes one after the other in this process (the kernels load once). A scene
-    that fails is reported and the others still render; raises Stop(1) at the end if any failed,
-    Stop(130) at once on Ctrl-C."""
+    that fails, for whatever reason, is reported in one line and the others still render; raises
+    Stop(1) at the end if any failed, Stop(130) at once on Ctrl-C."""
     each = batch_options(opts, scenes)
     failed = []
     connection = cluster_connection(opts.cluster) if opts.cluster is not None else None
@@ -621,6 +632,10 @@ def run_batch(opts: RenderOptions, scenes: list) -> None:
                 if stop.status == 130:
                     say(f"interrupted: {len(each) - i} scene(s) not rendered", err=True)
                     raise
+                failed.append(str(scene_opts.scene))
+            except Exception as exc:  # a fault of one scene (a bug, a full disk) must not cost the others
+                what = " ".join(f"{type(exc).__name__}: {exc}".split())  # one line, and not a whole file's worth
+                fail(f"error: {scene_opts.scene}: {what[:300]}")
                 failed.append(str(scene_opts.scene))
     finally:
         if connection is not None:

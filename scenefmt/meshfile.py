@@ -600,7 +600,11 @@ def read_ply(path, drop_degenerate: bool = True) -> MeshData:
     The header is read first: its counts must fit the file's size (a sparse file of zeros can
     declare anything) and the memory budget before plyfile allocates a record. Whatever plyfile
     raises on a malformed file becomes a MeshProblem."""
-    from plyfile import PlyData
+    try:
+        from plyfile import PlyData
+    except ImportError:  # a dependency, but an environment can still lack it: an error, not a traceback
+        raise MeshProblem("reading PLY needs the plyfile package, which is not installed: pip install plyfile "
+                          "(or convert the mesh to .obj)") from None
 
     with open_regular_file(path) as fh:
         fmt, elements = _ply_header(fh)

@@ -128,15 +128,17 @@ INTERRUPTED = (130, 143)
 
 
 class Aborted(BaseException):
-    """A second stop signal: the command ends at once and saves nothing more. It derives from
-    BaseException, as KeyboardInterrupt does, so that no handler of errors catches it on its way."""
+    """A stop signal that ends the command at once, saving nothing more: a second one, or a first
+    one (`first`) before any sample could be saved. It derives from BaseException, as
+    KeyboardInterrupt does, so that no handler of errors catches it on its way."""
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int, first: bool = False):
         import signal
 
         super().__init__(signum)
         self.name = signal.Signals(signum).name
         self.status = 128 + signum
+        self.first = first
 
 
 class StopSignals:
@@ -144,11 +146,14 @@ class StopSignals:
     that `requested` reports: the render polls it between bands of rows (a fraction of a second
     apart) and keeps its finished passes, which are then written. A second raises Aborted.
 
-    A handler runs in the main thread between two Python steps, so during a kernel's compile the
-    flag waits for the compile to end; the second signal does not."""
+    A handler runs in the main thread between two Python steps, so during a kernel's compile
+    (up to a minute or more) the flag would wait for the compile to end. While `nothing_to_save`
+    says so (no pass finished, none resumed), the first signal therefore raises Aborted at once:
+    stopping later would save nothing either."""
 
-    def __init__(self, notify):
+    def __init__(self, notify, nothing_to_save):
         self.notify = notify
+        self.nothing_to_save = nothing_to_save
         self.signum: Optional[int] = None
         self.previous: dict = {}
 
@@ -172,6 +177,8 @@ class StopSignals:
         if self.signum is not None:
             raise Aborted(signum)
         self.signum = signum
+        if self.nothing_to_save():
+            raise Aborted(signum, first=True)
         name = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
         try:  # the handler may run inside a write to standard error, which cannot be entered twice
             self.notify(f"interrupted ({name}): stopping, and saving the passes rendered so far "
@@ -392,6 +399,11 @@ class Progress:
             self.last_decile = int(frac * 10)
             self.show(line, stats)
 
+    @property
+    def shown_any(self) -> bool:
+        """Whether a pass has been shown, and so finished: the first is always drawn."""
+        return self.shown[0] >= 0
+
     def finish(self, stats) -> None:
         """Draw the render's final figures: during the render the noise is estimated at most once a
         second, so the last update can show an older estimate than the summary's, or none."""
@@ -509,7 +521,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         chosen = first_kernel(features, opts.kernel)
         say(f"kernel: {chosen.tag} (the paths compiled in; this scene needs {features.tag}; see docs/performance.md)", err=True)
     bar = Progress(target, scene.budget_seconds, opts.noise)
-    with StopSignals(bar.notify) as stop:
+    resumed = film is not None
+    with StopSignals(bar.notify, lambda: not resumed and not bar.shown_any) as stop:
         step = "rendering"
         try:
             try:
@@ -531,7 +544,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
-            if step == "writing":
+            if exc.first:
+                say("interrupted before the first pass finished: nothing to save", err=True)
+            elif step == "writing":
                 say(f"aborted by a second {exc.name} while writing: a file not yet in place is not written", err=True)
             else:
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)

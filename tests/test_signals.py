@@ -286,6 +286,47 @@ def test_a_second_signal_aborts_at_once_and_leaves_no_file(tmp_path):
         assert (tmp_path / "out.png").read_bytes().endswith(b"IEND\xaeB`\x82")  # a whole PNG
 
 
+def test_the_first_signal_stops_and_the_second_aborts_and_none_waits_before_a_pass_is_done():
+    from rt.render_job import Aborted, StopSignals
+
+    lines = []
+    stop = StopSignals(lines.append, nothing_to_save=lambda: False)
+    stop.handle(signal.SIGTERM, None)
+    assert stop.requested() and stop.status == 143 and "interrupted (SIGTERM)" in lines[0]
+    with pytest.raises(Aborted) as second:
+        stop.handle(signal.SIGINT, None)
+    assert (second.value.status, second.value.first) == (130, False)
+    # Before the first pass (a kernel's compile can take a minute), the first signal ends at once.
+    with pytest.raises(Aborted) as first:
+        StopSignals(lines.append, nothing_to_save=lambda: True).handle(signal.SIGINT, None)
+    assert (first.value.status, first.value.first) == (130, True)
+
+
+@pytest.mark.slow
+def test_a_signal_before_the_first_pass_is_done_ends_at_once_with_nothing_saved(tmp_path):
+    process = subprocess.Popen(rt_command(*WIDE, "--explain", "-o", str(tmp_path / "out.png"), "--save-state", str(tmp_path / "run.npz")),
+                               cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in process.stderr:
+            if line.startswith("kernel:"):  # said just before the kernel is loaded and the first pass starts
+                break
+        time.sleep(1.0)
+        sent = time.perf_counter()
+        process.send_signal(signal.SIGTERM)
+        stderr = process.stderr.read()
+        process.wait(timeout=60)
+        delay = time.perf_counter() - sent
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    assert process.returncode == 143, stderr
+    assert "interrupted before the first pass finished: nothing to save" in stderr
+    assert "Traceback" not in stderr and " spp " not in stderr
+    assert delay < 2.0, f"{delay:.1f} s"
+    assert list(tmp_path.iterdir()) == []
+
+
 def general_kernel_only_cache(tmp_path):
     """A Numba cache folder holding the general kernel (compiled if need be) and no specialised one."""
     from renderer.jit_cache import configure

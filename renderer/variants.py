@@ -29,6 +29,7 @@ import threading
 import types
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Optional
 
 import numba
 
@@ -116,6 +117,29 @@ def first_kernel(needed: KernelFeatures, choice: str = "auto") -> KernelFeatures
 def worth_specialising(remaining_seconds: float) -> bool:
     """Whether compiling the specialised kernel now repays itself in the rest of a render."""
     return remaining_seconds * SPECIALISED_GAIN > SPECIALISED_COMPILE_SECONDS
+
+
+def seconds_left(sample_seconds: float, samples: int, cap: int, *, noise: Optional[float] = None,
+                 noise_target: Optional[float] = None, time_left: Optional[float] = None) -> Optional[float]:
+    """The rendering time a render has left, forecast from what it measured so far: None while
+    it cannot tell yet (a noise target, and no noise estimate).
+
+    `sample_seconds` is the time of one sample per pixel, `samples` those done and `cap` the most
+    it may render. With a noise target the render ends when the estimated noise `noise` falls
+    to it, and noise falls as one over the square root of the samples: so it needs about
+    samples * (noise / noise_target)^2 in all, often far below the cap (a `--noise` render's
+    cap is a million samples). With a time budget, `time_left` of it remains. The forecast is
+    the least of these.
+    """
+    left = sample_seconds * max(0, cap - samples)
+    if noise_target is not None:
+        if noise is None or samples < 2 or not 0 < noise < float("inf"):
+            return None
+        needed = samples * (noise / noise_target) ** 2
+        left = min(left, sample_seconds * max(0.0, needed - samples))
+    if time_left is not None:
+        left = min(left, max(0.0, time_left))
+    return left
 
 
 def _variant_cache_dir(tag: str) -> str:

@@ -121,6 +121,83 @@ class Stop(Exception):
         self.status = status
 
 
+# A render stopped by a signal writes what it has rendered, then exits with 128 + the signal's
+# number, as a shell reports a process that signal ended: 130 for Ctrl-C (SIGINT), 143 for
+# SIGTERM (what `timeout`, systemd and Slurm send). A script can tell the two from an error (1).
+STOP_SIGNALS = ("SIGINT", "SIGTERM")
+INTERRUPTED = (130, 143)
+
+
+class Aborted(BaseException):
+    """A stop signal that ends the command at once, saving nothing more: a second one, or a first
+    one (`first`) before any sample could be saved. It derives from BaseException, as
+    KeyboardInterrupt does, so that no handler of errors catches it on its way."""
+
+    def __init__(self, signum: int, first: bool = False):
+        import signal
+
+        super().__init__(signum)
+        self.name = signal.Signals(signum).name
+        self.status = 128 + signum
+        self.first = first
+
+
+class StopSignals:
+    """Within a `with` block, SIGINT and SIGTERM ask the render to stop. The first sets the flag
+    that `requested` reports: the render polls it between bands of rows (a fraction of a second
+    apart) and keeps its finished passes, which are then written. A second raises Aborted.
+
+    A handler runs in the main thread between two Python steps, so during a kernel's compile
+    (up to a minute or more) the flag would wait for the compile to end. While `nothing_to_save`
+    says so (no pass finished, none resumed), the first signal therefore raises Aborted at once:
+    stopping later would save nothing either."""
+
+    def __init__(self, notify, nothing_to_save):
+        self.notify = notify
+        self.nothing_to_save = nothing_to_save
+        self.signum: Optional[int] = None
+        self.previous: dict = {}
+
+    def __enter__(self) -> "StopSignals":
+        import signal
+
+        for name in STOP_SIGNALS:
+            number = getattr(signal, name)
+            self.previous[number] = signal.signal(number, self.handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import signal
+
+        for number, handler in self.previous.items():
+            signal.signal(number, handler)
+
+    def handle(self, signum: int, _stack_frame) -> None:
+        import signal
+
+        if self.signum is not None:
+            raise Aborted(signum)
+        self.signum = signum
+        if self.nothing_to_save():
+            raise Aborted(signum, first=True)
+        name = "Ctrl-C" if signum == signal.SIGINT else signal.Signals(signum).name
+        try:  # the handler may run inside a write to standard error, which cannot be entered twice
+            self.notify(f"interrupted ({name}): stopping, and saving the passes rendered so far "
+                        f"(a second Ctrl-C or SIGTERM aborts without saving)")
+        except RuntimeError:
+            pass
+
+    def requested(self) -> bool:
+        return self.signum is not None
+
+    @property
+    def status(self) -> int:
+        """The exit status of a stopped render: 128 + the signal's number (130 without one)."""
+        import signal
+
+        return 128 + (self.signum if self.signum is not None else signal.SIGINT)
+
+
 def say(message: str, err: bool = False) -> None:
     stream = sys.stderr if err else sys.stdout
     stream.write(message + "\n")
@@ -336,6 +413,11 @@ class Progress:
             self.last_decile = int(frac * 10)
             self.show(line, stats)
 
+    @property
+    def shown_any(self) -> bool:
+        """Whether a pass has been shown, and so finished: the first is always drawn."""
+        return self.shown[0] >= 0
+
     def finish(self, stats) -> None:
         """Draw the render's final figures: during the render the noise is estimated at most once a
         second, so the last update can show an older estimate than the summary's, or none."""
@@ -452,9 +534,8 @@ def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
 
 def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, connection=None) -> None:
     """Render a prepared scene and write its images, on the cluster of `connection` if given
-    (rt.cluster.Connection). Raises Stop for any end but success."""
-    import signal
-
+    (rt.cluster.Connection). Raises Stop for any end but success; Ctrl-C (SIGINT) or SIGTERM stops
+    the render and writes what is rendered (`StopSignals`)."""
     from renderer.variants import first_kernel
 
     from .cluster import ClusterError  # dask itself is imported only for a cluster
@@ -492,55 +573,56 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             say(f"warning: --resume {opts.resume} already holds {film.samples} samples per pixel, "
                 f"{'more than' if film.samples > target else 'as many as'} {asked} asks for: nothing more is rendered, "
                 f"and the images hold all {film.samples} (a saved state cannot drop samples)", err=True)
-    stop = {"requested": False}
-
-    def on_interrupt(signum, _stack_frame):
-        if stop["requested"]:
-            raise KeyboardInterrupt
-        stop["requested"] = True
-        sys.stderr.write("\ninterrupted: finishing the current pass and saving what is rendered (Ctrl-C again to abort)\n")
-
     flat, features = scene.flat, scene.features
     if opts.explain:
         chosen = first_kernel(features, opts.kernel)
         say(f"kernel: {chosen.tag} (the paths compiled in; this scene needs {features.tag}; see docs/performance.md)", err=True)
-    previous = signal.signal(signal.SIGINT, on_interrupt)
     bar = Progress(target, scene.budget_seconds, opts.noise)
-    try:
-        result = render_scene(
-            flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,
-            package=scene.package, progress=bar, max_depth=opts.max_depth, seed=opts.seed, film=film,
-            should_stop=lambda: stop["requested"], time_budget=scene.budget_seconds, noise_target=opts.noise,
-            notify=bar.notify,
-        )
-    except ValueError as exc:
-        failure = str(exc)
-    except MemoryError as exc:  # the film and the kernels' buffers, allowed by the estimate but not there
-        from scenefmt.assets import memory_message
+    resumed = film is not None
+    with StopSignals(bar.notify, lambda: not resumed and not bar.shown_any) as stop:
+        step = "rendering"
+        try:
+            try:
+                result = render_scene(
+                    flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,
+                    package=scene.package, progress=bar, max_depth=opts.max_depth, seed=opts.seed, film=film,
+                    should_stop=stop.requested, time_budget=scene.budget_seconds, noise_target=opts.noise,
+                    notify=bar.notify,
+                )
+            except ValueError as exc:
+                raise fail(f"error: {opts.scene}: {exc}")
+            except MemoryError as exc:  # the film and the kernels' buffers, allowed by the estimate but not there
+                from scenefmt.assets import memory_message
 
-        failure = memory_message(exc, "render it")
-    except ClusterError as exc:
-        if connection is not None and connection.client.status != "running":
-            connection.close()  # now: a client left trying to reconnect would log its failure later
-        raise cluster_failure(opts, scene, exc)
-    else:
-        failure = None
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if failure is not None:
-        raise fail(f"error: {opts.scene}: {failure}")
-    stats, film = result.stats, result.film
-    if film.samples == 0:
-        say("interrupted before the first pass finished: nothing to save", err=True)
-        raise Stop(130)
-    from .outputs import write_outputs  # the state first; a failed write rescues the samples
+                raise fail(f"error: {opts.scene}: {memory_message(exc, 'render it')}")
+            except ClusterError as exc:
+                if connection is not None and connection.client.status != "running":
+                    connection.close()  # now: a client left trying to reconnect would log its failure later
+                raise cluster_failure(opts, scene, exc)
+            stats, film = result.stats, result.film
+            if film.samples == 0:
+                say("interrupted before the first pass finished: nothing to save", err=True)
+                raise Stop(stop.status)
+            from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
-    estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            step = "writing"
+            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+        except Aborted as exc:
+            # Each file is written under a temporary name and renamed: one is whole or not written.
+            if exc.first:
+                say("interrupted before the first pass finished: nothing to save", err=True)
+            elif step == "writing":
+                say(f"aborted by a second {exc.name} while writing: a file not yet in place is not written", err=True)
+            else:
+                say(f"aborted by a second {exc.name}: nothing is saved", err=True)
+            raise Stop(exc.status)
     total = time.perf_counter() - started
     written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
+    # A kernel compiled during the render is not rendering time (nor counted against --time).
+    compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
-        f"({fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
+        f"({compiling}{fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
     wx, wy = estimate.worst_pixel
     if film.samples < 2:
@@ -560,7 +642,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         say(f"warning: {stats.bad_samples} samples were not finite and were left out (please report this scene)", err=True)
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
-        raise Stop(130)
+        raise Stop(stop.status)
 
 
 def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
@@ -618,7 +700,7 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
 def run_batch(opts: RenderOptions, scenes: list) -> None:
     """Render several scenes one after the other in this process (the kernels load once). A scene
     that fails, for whatever reason, is reported in one line and the others still render; raises
-    Stop(1) at the end if any failed, Stop(130) at once on Ctrl-C."""
+    Stop(1) at the end if any failed, Stop(130 or 143) at once on Ctrl-C or SIGTERM."""
     each = batch_options(opts, scenes)
     failed = []
     connection = cluster_connection(opts.cluster) if opts.cluster is not None else None
@@ -629,13 +711,14 @@ def run_batch(opts: RenderOptions, scenes: list) -> None:
             try:
                 render_prepared(scene_opts, prepare(scene_opts), started, connection)
             except Stop as stop:
-                if stop.status == 130:
+                if stop.status in INTERRUPTED:
                     say(f"interrupted: {len(each) - i} scene(s) not rendered", err=True)
                     raise
                 failed.append(str(scene_opts.scene))
             except Exception as exc:  # a fault of one scene (a bug, a full disk) must not cost the others
-                what = " ".join(f"{type(exc).__name__}: {exc}".split())  # one line, and not a whole file's worth
-                fail(f"error: {scene_opts.scene}: {what[:300]}")
+                # Its kind only: the text of an exception nobody foresaw may hold anything, a file's lines too.
+                fail(f"error: {scene_opts.scene}: an unexpected failure ({type(exc).__name__}); the other scenes go on "
+                     "(please report this scene)")
                 failed.append(str(scene_opts.scene))
     finally:
         if connection is not None:

@@ -218,12 +218,16 @@ def row_stride(height):
 
 
 @njit(parallel=True, cache=True, error_model="numpy")
-def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
+def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad,
+                band_start, band_stop):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums,
-    with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS)."""
+    with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS), for the rows at
+    positions band_start..band_stop of the pass's row order (`row_stride`); 0..height is the
+    whole image. A long pass is rendered as several such bands, so that a render can stop
+    between them; each pixel's sums are the same however the rows are banded."""
     stride = row_stride(height)
-    for k in prange(height):
-        j = (k * stride) % height
+    for m in prange(band_stop - band_start):
+        j = ((band_start + m) * stride) % height
         stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
         tstack = np.empty((BVH_STACK, 2))
         rays = 0

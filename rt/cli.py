@@ -274,7 +274,7 @@ def render(
     cluster: Optional[str] = typer.Option(
         None, "--cluster", metavar="local|tcp://HOST:PORT",
         help="Render on a Dask cluster: local starts worker processes on this machine; an address uses a running "
-        "dask scheduler. The image is the same as without, bit for bit. Needs pip install 'rt-render[cluster]'; "
+        "dask scheduler. The image is the same as without, bit for bit. Needs the cluster extra (pip install '.[cluster]' in rt's folder); "
         "see docs/cluster.md.",
     ),
     allow_paths: List[Path] = _ALLOW_OPTION,

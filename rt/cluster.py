@@ -6,7 +6,7 @@ bytes (`chunks.ScenePackage`), submits chunks (a tile and a range of samples eac
 rt/chunks.py) and merges their sums into the film in a fixed order. Dask runs the chunks,
 moves the data and computes again whatever a dead worker lost.
 
-dask.distributed is an optional dependency (`pip install 'rt-render[cluster]'`): it is
+dask.distributed is an optional dependency (the `cluster` extra: `pip install '.[cluster]'` in rt's folder): it is
 imported only here, only when a cluster is asked for.
 """
 
@@ -28,7 +28,7 @@ CONNECT_SECONDS = 5.0  # to reach a scheduler given by address
 WORKERS_SECONDS = 60.0  # to wait for a first worker to join
 POLL_SECONDS = 0.2  # between checks of Ctrl-C and the time budget while chunks run
 WORKERS_POLL_SECONDS = 2.0  # between asks to the scheduler whether any worker is left, while none finishes
-MISSING = "rendering on a cluster needs dask.distributed: pip install 'rt-render[cluster]'"
+MISSING = "rendering on a cluster needs dask.distributed: pip install '.[cluster]' in rt's folder (or pip install distributed)"
 
 
 class ClusterError(RuntimeError):

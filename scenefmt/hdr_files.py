@@ -5,7 +5,7 @@ stored, so `colorspace` does not apply). Reading is bounded as every input is: a
 at most `MAX_HDR_BYTES`, its size in pixels checked from the header before any pixel is
 decoded, and its values checked (finite, not negative) before they are used.
 
-OpenEXR is an optional dependency (`pip install 'rt-render[exr]'`): without it, PFM still works
+OpenEXR is an optional dependency (the `exr` extra: `pip install '.[exr]'` in rt's folder): without it, PFM still works
 and an .exr name gets an error saying what to install, before anything is rendered.
 """
 
@@ -27,7 +27,7 @@ HDR_SUFFIXES = (".exr", ".pfm")
 MAX_HDR_BYTES = 16384 * 16384 * 12 + (1 << 20)
 EXR_MISSING = (
     "reading or writing OpenEXR (.exr) needs the openexr package, which is not installed: "
-    "pip install 'rt-render[exr]' (or use .pfm)"
+    "pip install '.[exr]' in rt's folder, or pip install openexr (or use .pfm)"
 )
 
 

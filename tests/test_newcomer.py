@@ -1,6 +1,6 @@
 """The paths a newcomer takes (issue 29): what `rt` says on them, run as a user runs it.
 
-- the help of every command shows its text in square brackets ("rt-render[cluster]");
+- the help of every command shows its text in square brackets (".[cluster]");
 - `--resume` with a state of another scene or image size says which, not that the file is large;
   a state cut short or damaged is one clear line;
 - `rt watch` says nothing when a browser resets its connection;
@@ -37,7 +37,7 @@ def _help(*command: str) -> str:
 
 @pytest.mark.slow
 def test_render_help_shows_the_cluster_extra():
-    assert "pip install 'rt-render[cluster]'" in _help("render")
+    assert "pip install '.[cluster]'" in _help("render")
 
 
 @pytest.mark.slow

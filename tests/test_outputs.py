@@ -184,7 +184,7 @@ def test_an_exr_without_the_openexr_package_is_refused_before_rendering(tmp_path
     monkeypatch.setitem(sys.modules, "OpenEXR", None)  # import OpenEXR now raises ImportError
     result = runner.invoke(app, render_args(tmp_path, "--hdr", str(tmp_path / "out.exr"), "-o", str(tmp_path / "o.png")))
     assert result.exit_code == 1
-    assert "--hdr" in result.output and "needs the openexr package, which is not installed: pip install 'rt-render[exr]'" in result.output
+    assert "--hdr" in result.output and "needs the openexr package, which is not installed: pip install '.[exr]' in rt's folder" in result.output
     assert list(tmp_path.iterdir()) == [tmp_path / "s.yaml"]
 
 

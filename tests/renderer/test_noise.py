@@ -77,7 +77,7 @@ def test_a_resumed_render_equals_one_render_with_all_the_samples(tmp_path):
 def test_a_state_of_another_scene_or_setting_is_refused(tmp_path):
     graph = loads(SMALL).graph
     save_state(tmp_path / "state.npz", render(graph, samples=2).film, key_of(graph))
-    with pytest.raises(ValueError, match="the scene file changed"):
+    with pytest.raises(ValueError, match="it is of another scene \\(or of this one before a change to it\\)"):
         load_state(tmp_path / "state.npz", key_of(graph, scene="other"))
     other_seed = RenderKey("abc", graph.image.width, graph.image.pixel_height, graph.image.max_depth, 99)
     with pytest.raises(ValueError, match="seed 5 \\(now 99\\)"):

@@ -134,6 +134,7 @@ class Counts:
     outputs: int = 0
     surfaces: dict = field(default_factory=dict)  # cases per surface
     surface: str = ""  # the surface of the case running
+    fuzzer_errors: list = field(default_factory=list)  # cases the fuzzer failed to build (its own bugs, not rt's)
     native_output: int = 0  # cases where a C library wrote to the terminal itself (not a failure; counted)
     native_examples: dict = field(default_factory=dict)
     slowest: list = field(default_factory=list)  # (seconds, label, first message)
@@ -171,6 +172,8 @@ class Counts:
         lines += [f"  {s * 1000:8.1f} ms  {label}: {msg[:150]}" for s, label, msg in self.slowest]
         lines.append("largest rejections (peak traced Python memory):")
         lines += [f"  {peak / 2**20:8.1f} MiB  {label}: {msg[:150]}" for peak, label, msg in self.largest]
+        for error in self.fuzzer_errors[:5]:
+            lines.append(f"FUZZER ERROR (not counted against rt) in {error}")
         distinct = self.distinct()
         if distinct:
             lines.append(f"distinct failures: {len(distinct)} (of {len(self.failures)})")
@@ -954,7 +957,7 @@ def mesh_case(rng: random.Random, folder: Path) -> tuple[str, str, dict]:
             ptype = "int"
         elif kind == "nan-vertex":
             vertices = [list(v) for v in vertices]
-            vertices[rng.randrange(len(vertices))][rng.randrange(3)] = rng.choice([float("nan"), float("inf"), -float("inf"), 3.5e38])
+            vertices[rng.randrange(len(vertices))][rng.randrange(3)] = rng.choice([float("nan"), float("inf"), -float("inf"), 3.4e38])
         ctype, ptype = args.pop("count_type", ctype), args.pop("index_type", ptype)
         content = ply_bytes(vertices, faces, form, rng, count_type=ctype, index_type=ptype, **args)
         if kind == "truncated":
@@ -1274,6 +1277,9 @@ def run(cases: int, seed: int, render_share: float = 0.1, time_limit: float = 10
                 try:
                     _one(surface, counts, rng, work, hostile, sources, documents, case, time_limit, render_time_limit,
                          render_share, measure_memory, show)
+                except Exception:  # a bug of the fuzzer's own (a case it could not build): said, and the run goes on
+                    _untimed()
+                    counts.fuzzer_errors.append(f"case {case} ({surface}): {traceback.format_exc()[-600:]}")
                 finally:
                     if not keep:
                         shutil.rmtree(work / "cases" / f"c{case}", ignore_errors=True)

@@ -194,6 +194,8 @@ def read_stream(stream, limit: int) -> bytes:
             size += len(chunk)
     except OSError as exc:
         raise FileProblem(f"cannot read: {describe_os_error(exc)}") from None
+    except ValueError:  # Python's "read of closed file": a caller closed the stream (sys.stdin.close())
+        raise FileProblem("cannot read: the stream is closed") from None
     if size > limit:
         raise FileProblem(f"the input is larger than the {limit:,} bytes allowed")
     return b"".join(chunks)

@@ -31,23 +31,12 @@ def test_a_bounded_run_with_tiny_renders_is_clean():
     assert counts.rendered > 10
 
 
-# The surfaces issue 29 added to the fuzzer. Each fails on the code before the fixes named
-# (found by tests/fuzz.py, listed in docs/robustness.md); drop a mark when its fixes are merged.
-NEEDS = {
-    "includes": "a non-scene include's lines echoed as keys (include: [/etc/shadow])",
-    "set": "recursive YAML aliases (RecursionError); also the quadratic --set key walk (slow)",
-    "stdin": "a closed standard input (AttributeError for <&-, ValueError for a closed stream)",
-    "meshes": "mesh files' lines echoed (OBJ statements, PLY header lines); also PLY list counts beyond their type "
-              "(OverflowError) and PLYs of zero faces (ValueError)",
-    "images": "a malformed EXR (ValueError)",
-    "outputs": "outputs that overwrite the scene's inputs",
-}
+# The surfaces issue 29 added to the fuzzer; on the code before its fixes, each of these runs met
+# at least one failure (docs/robustness.md lists them).
+NEW_SURFACES = ["includes", "set", "stdin", "meshes", "images", "outputs"]
 
 
-@pytest.mark.parametrize(
-    "surface",
-    [pytest.param(s, marks=pytest.mark.xfail(reason="needs the issue-29 fixes for " + NEEDS[s], strict=False)) for s in NEEDS],
-)
+@pytest.mark.parametrize("surface", NEW_SURFACES)
 def test_a_bounded_run_of_a_new_surface_is_clean(surface):
     # Seeds whose 40 cases meet at least one of the failures above on the code before the fixes.
     seed = 30 if surface == "images" else 29

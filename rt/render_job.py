@@ -425,9 +425,11 @@ class Progress:
             self.show(self.line(stats)[0], stats)
 
     def show(self, line: str, stats) -> None:
+        # Recorded before the line is written: a signal sent on seeing the line may run its handler
+        # between the write and the next statement, and must find a pass shown (`shown_any`).
+        self.shown = (stats.samples, self.noise_text(stats))
         sys.stderr.write("\r" + line if self.tty else line + "\n")
         sys.stderr.flush()
-        self.shown = (stats.samples, self.noise_text(stats))
 
     @staticmethod
     def noise_text(stats) -> str:

@@ -1102,7 +1102,7 @@ def image_case(rng: random.Random, folder: Path) -> tuple[str, str, dict]:
         name = "image." + rng.choice(["exr", "pfm", "png", "PFM", "jpg", "txt", "EXR"])
     path = folder / name
     if kind == "sparse":
-        size = rng.choice([16384 * 16384 * 12 + (1 << 20) + 1, 64 << 20, 8 << 20])  # 300 MiB once ended a long run
+        size = rng.choice([16384 * 16384 * 12 + (1 << 20) + 1, 300 << 20, 8 << 20])
         sparse_file(path, size, raw)
         return name, f"{form} sparse to {size:,} bytes", {name: f"(sparse: a {width}x{height} {form} then NUL bytes to {size:,})"}
     if kind == "folder":

@@ -1601,25 +1601,32 @@ def _trial(counts: Counts, label: str, action, time_limit: float, measure_memory
     return True, value
 
 
-def _render_accepted(counts: Counts, label: str, loaded, rng, render_time_limit: float, detail: str) -> None:
-    """Render an accepted scene tiny; an image that does not decode is the documented ValueError."""
+def _guarded(counts: Counts, label: str, limit: float, step, stage: str, detail: str) -> tuple[bool, object]:
+    """(True, what `step` returns) within `limit` seconds. Otherwise (False, None), counted: a
+    ValueError is the documented refusal of an image that does not decode (its text checked for
+    echoes), a Hang or any other exception a failure of `stage` (render, decoding)."""
     try:
-        _timed(render_time_limit)
+        _timed(limit)
         try:
-            finite = render_tiny(loaded, rng)
+            return True, step()
         finally:
             _untimed()
     except ValueError as exc:
         counts.decode_refused += 1
         _check_text(counts, label, [str(exc)], detail)
-        return
     except Hang:
         counts.hangs += 1
-        _failure(counts, label, "hang (render)", detail)
-        return
+        _failure(counts, label, f"hang ({stage})", detail)
     except BaseException:  # noqa: BLE001
         counts.tracebacks += 1
-        _failure(counts, label, "traceback (render)", traceback.format_exc()[-1500:] + "\n" + detail)
+        _failure(counts, label, f"traceback ({stage})", traceback.format_exc()[-1500:] + "\n" + detail)
+    return False, None
+
+
+def _render_accepted(counts: Counts, label: str, loaded, rng, render_time_limit: float, detail: str) -> None:
+    """Render an accepted scene tiny; an image that does not decode is the documented ValueError."""
+    ok, finite = _guarded(counts, label, render_time_limit, lambda: render_tiny(loaded, rng), "render", detail)
+    if not ok:
         return
     counts.rendered += 1
     if not finite:
@@ -1705,23 +1712,9 @@ def _images(counts, rng, work, case, time_limit, render_time_limit, render_share
         return
     # Validation reads headers (and float images); the pixels are decoded when the scene is compiled.
     colorspace = scene["materials"]["m"].get("albedo", scene["materials"]["m"].get("emit", {})) if "texture" in roles else {}
-    try:
-        _timed(time_limit)
-        try:
-            texels = load_image_texels(folder / name, colorspace.get("colorspace", "srgb") if isinstance(colorspace, dict) else "srgb")
-        finally:
-            _untimed()
-    except ValueError as exc:
-        counts.decode_refused += 1
-        _check_text(counts, label, [str(exc)], detail)
-        return
-    except Hang:
-        counts.hangs += 1
-        _failure(counts, label, "hang (decoding)", detail)
-        return
-    except BaseException:  # noqa: BLE001
-        counts.tracebacks += 1
-        _failure(counts, label, "traceback (decoding)", traceback.format_exc()[-1500:] + "\n" + detail)
+    space = colorspace.get("colorspace", "srgb") if isinstance(colorspace, dict) else "srgb"
+    ok, texels = _guarded(counts, label, time_limit, lambda: load_image_texels(folder / name, space), "decoding", detail)
+    if not ok:
         return
     if not (np.isfinite(texels).all() and (texels >= 0).all()):
         counts.non_finite += 1

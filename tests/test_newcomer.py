@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from tests.test_cli import run_rt, write
+from tests.test_render_job import SMALL
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -59,14 +60,8 @@ def test_no_help_text_loses_words_in_square_brackets():
 
 # -- resuming a state of another render
 
-SCENE_A = """
-camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40}
-image: {width: 200, aspect_ratio: 2, samples_per_pixel: 1, max_depth: 4, seed: 5}
-materials: {m: {type: lambertian, albedo: [0.6, 0.3, 0.2]}}
-shapes:
-  - {type: sphere, center: [0, -100, 0], radius: 100, material: m}
-  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: m}
-"""
+# test_render_job's small scene at 200x100 and 1 sample
+SCENE_A = SMALL.replace("width: 16,", "width: 200,").replace("samples_per_pixel: 4,", "samples_per_pixel: 1,")
 SCENE_B = SCENE_A.replace("[0.6, 0.3, 0.2]", "[0.2, 0.3, 0.6]")
 
 
@@ -115,13 +110,18 @@ def test_resuming_at_another_size_seed_depth_or_integrator_names_each(saved_stat
 @pytest.mark.slow
 def test_a_state_cut_short_or_damaged_is_refused_in_one_line(saved_state):
     data = (saved_state / "a.npz").read_bytes()
-    (saved_state / "cut.npz").write_bytes(data[: len(data) // 2])
-    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "cut.npz", cwd=saved_state)
+    cut = data[: len(data) // 2]
+    (saved_state / "cut.npz").write_bytes(cut)
+    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "cut.npz", "-o", "cut.png", cwd=saved_state)
     _refused(out, "cut.npz: not a saved render state, or one cut short")
     middle = len(data) // 3  # inside the first array's data: the member's checksum fails
-    (saved_state / "bad.npz").write_bytes(data[:middle] + bytes(64) + data[middle + 64:])
-    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "bad.npz", cwd=saved_state)
+    bad = data[:middle] + bytes(64) + data[middle + 64:]
+    (saved_state / "bad.npz").write_bytes(bad)
+    out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "bad.npz", "-o", "bad.png", cwd=saved_state)
     _refused(out, "bad.npz: the member 'total.npy' cannot be read")
+    # Refused before rendering: no image written, and the states are as they were.
+    assert not (saved_state / "cut.png").exists() and not (saved_state / "bad.png").exists()
+    assert (saved_state / "cut.npz").read_bytes() == cut and (saved_state / "bad.npz").read_bytes() == bad
 
 
 def test_a_state_of_a_larger_image_is_refused_by_its_key_after_reading_little(tmp_path):

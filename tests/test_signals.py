@@ -242,13 +242,18 @@ def check_stopped_mid_pass(stderr, delay, tmp_path):
     assert (tmp_path / "out.png").stat().st_size > 0
 
 
+def stop_one_signal_mid_pass(tmp_path, signum, status_wanted: int, name: str) -> None:
+    """One signal in the middle of a pass: the exit status, the words said, and what was kept."""
+    status, stderr, delay = stop_mid_pass(tmp_path, [signum])
+    assert status == status_wanted, stderr
+    assert "Traceback" not in stderr
+    assert f"interrupted ({name}): stopping, and saving the passes rendered so far" in stderr
+    check_stopped_mid_pass(stderr, delay, tmp_path)
+
+
 @pytest.mark.slow
 def test_ctrl_c_mid_pass_stops_within_seconds_and_the_state_resumes(tmp_path):
-    status, stderr, delay = stop_mid_pass(tmp_path, [signal.SIGINT])
-    assert status == 130, stderr
-    assert "Traceback" not in stderr
-    assert "interrupted (Ctrl-C): stopping, and saving the passes rendered so far" in stderr
-    check_stopped_mid_pass(stderr, delay, tmp_path)
+    stop_one_signal_mid_pass(tmp_path, signal.SIGINT, 130, "Ctrl-C")
     held = 1
     resumed = subprocess.run(rt_command("scenes/cornell_knot.yaml", "--width", "1000", "--kernel", "general", "--spp", str(held + 1),
                                         "--resume", str(tmp_path / "run.npz"), "-o", str(tmp_path / "more.png")),
@@ -260,11 +265,7 @@ def test_ctrl_c_mid_pass_stops_within_seconds_and_the_state_resumes(tmp_path):
 
 @pytest.mark.slow
 def test_sigterm_mid_pass_saves_what_is_rendered_and_exits_143(tmp_path):
-    status, stderr, delay = stop_mid_pass(tmp_path, [signal.SIGTERM])
-    assert status == 143, stderr
-    assert "Traceback" not in stderr
-    assert "interrupted (SIGTERM): stopping, and saving the passes rendered so far" in stderr
-    check_stopped_mid_pass(stderr, delay, tmp_path)
+    stop_one_signal_mid_pass(tmp_path, signal.SIGTERM, 143, "SIGTERM")
 
 
 @pytest.mark.slow

@@ -197,8 +197,10 @@ def free_port() -> str:
 def copy_checkout(to: Path) -> Path:
     """The checkout's tracked files, as they are in the work tree, copied to `to`."""
     listed = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, text=True)
-    if listed.returncode != 0:
-        pytest.skip("not a git checkout: the README's set-up installs from one")
+    if listed.returncode != 0:  # an unpacked archive: the tree less what a build or a run leaves
+        shutil.copytree(ROOT, to, ignore=shutil.ignore_patterns(".git", ".venv", "build", "*.egg-info", "__pycache__",
+                                                                 ".pytest_cache"))
+        return to
     for name in filter(None, listed.stdout.split("\0")):
         source = ROOT / name
         if source.is_file():  # a tracked file deleted in the work tree is not copied
@@ -266,9 +268,9 @@ def watch(session: Session, line: str) -> None:
     assert "stopped" in log.read_text() and "Traceback" not in log.read_text()
 
 
-def run_readme(work: Path) -> list[str]:
+def run_readme(work: Path) -> "ReadmeRun":
     """Install as the README's set-up does and run every marked block, in `work`; raises
-    AssertionError (or pytest's skip) on what fails. Returns the timings, one line a command."""
+    AssertionError on what fails. Returns what it ran and the files it left."""
     readme = (ROOT / "README.md").read_text()
     blocks = marked_blocks(readme)
     checkout = copy_checkout(work / "checkout")
@@ -312,13 +314,23 @@ def run_readme(work: Path) -> list[str]:
         session.stop_servers()
         session.timings.insert(0, (time.perf_counter() - started, "the README test in all"))
 
-    # What the blocks promise, beyond running: the batch made its new folder, with linear images.
-    for scene in shipped_scenes(checkout):
-        if scene.endswith(".yaml"):
-            assert (checkout / "renders" / f"{Path(scene).stem}.exr").is_file()
-    assert (checkout / "my_scene.yaml").is_file() and (checkout / "scene.exr").is_file()
-    assert not (ROOT / "renders").exists() and not (ROOT / "my_scene.yaml").exists()
-    return [f"{seconds:6.1f} s  {command[:110]}" for seconds, command in session.timings]
+    return ReadmeRun(
+        timings=[f"{seconds:6.1f} s  {command[:110]}" for seconds, command in session.timings],
+        commands=[command for _, command in session.timings],
+        shipped=shipped_scenes(checkout),
+        files=sorted(str(p.relative_to(checkout)) for p in checkout.rglob("*")
+                     if p.is_file() and ".venv" not in p.parts and p.suffix in (".exr", ".png", ".yaml", ".pfm")),
+    )
+
+
+@dataclass
+class ReadmeRun:
+    """What `run_readme` saw: each command's time, the commands, the shipped scenes, the files left."""
+
+    timings: list
+    commands: list
+    shipped: list
+    files: list
 
 
 class BackgroundRun:
@@ -343,7 +355,7 @@ class BackgroundRun:
         except BaseException as exc:  # noqa: BLE001 - re-raised in the test that joins it
             self.outcome = ("failed", exc)
 
-    def result(self, timeout: float) -> list[str]:
+    def result(self, timeout: float) -> "ReadmeRun":
         self.thread.join(timeout)
         try:
             assert not self.thread.is_alive(), f"the README run did not finish in {timeout:.0f} s"
@@ -367,8 +379,23 @@ def start_in_background() -> None:
 
 @pytest.mark.slow
 def test_the_readme_runs_as_shown(tmp_path):
-    timings = background.result(timeout=1800) if background is not None else run_readme(tmp_path)
-    print("\nREADME test:\n" + "\n".join(timings))
+    run = background.result(timeout=1800) if background is not None else run_readme(tmp_path)
+    print("\nREADME test:\n" + "\n".join(run.timings))
+    ran = " ".join(run.commands)
+    # The commands the issue names ran, as the README writes them.
+    for wanted in ("pip install .", "pip install '.[exr]'", "pip install '.[cluster]'", "--cluster local",
+                   "dask scheduler", "dask worker", "--cluster tcp://127.0.0.1:", "rt watch ", "rt render - ",
+                   "-o renders/", "rt validate scenes/*.yaml"):
+        assert wanted in ran, f"the README test did not run {wanted!r}"
+    # What the blocks promise, beyond running: every shipped scene rendered on the plain install,
+    # the batch made its new folder with linear images, the Python blocks wrote their files.
+    assert run.shipped == shipped_scenes(ROOT)  # every scene in scenes/, none missed by the copy
+    for scene in run.shipped:
+        assert f"plain/new/{Path(scene).stem}.png" in run.files, scene
+        if scene.endswith(".yaml"):
+            assert f"renders/{Path(scene).stem}.exr" in run.files, scene
+    assert "my_scene.yaml" in run.files and "scene.exr" in run.files
+    assert not (ROOT / "renders").exists() and not (ROOT / "my_scene.yaml").exists()
 
 
 # The batch (`rt render a.yaml b.yaml ...`): a new -o folder, and a failure of any kind is one line.

@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Optional, Union
 
+from scenefmt.assets import file_identity  # a file's identity and version: what a kept scene depends on
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -250,7 +252,7 @@ PREPARED_BYTES = 1 << 30
 
 @dataclass
 class _Prepared:
-    files: tuple  # (path, _signature(path)) of every file the load read
+    files: tuple  # (path, file_identity(path)) of every file the load read
     loaded: "LoadedScene"
     graph: Any
     flat: Any
@@ -260,14 +262,6 @@ class _Prepared:
 
 _prepared: "OrderedDict[tuple, _Prepared]" = OrderedDict()
 _prepared_lock = threading.Lock()
-
-
-def _signature(path: str) -> Optional[tuple]:
-    try:
-        info = os.stat(path)
-    except OSError:
-        return None
-    return (info.st_dev, info.st_ino, info.st_size, info.st_mtime_ns)
 
 
 def _data_key(data: Any) -> Optional[str]:
@@ -292,7 +286,7 @@ def _cached(key: Optional[tuple]) -> Optional[_Prepared]:
         entry = _prepared.get(key)
     if entry is None:
         return None
-    if any(_signature(path) != seen for path, seen in entry.files):
+    if any(file_identity(path) != seen for path, seen in entry.files):
         with _prepared_lock:
             if _prepared.get(key) is entry:
                 del _prepared[key]
@@ -344,7 +338,7 @@ def _prepare(scene: SceneLike, overrides: tuple, width: Optional[int], integrato
     with recording_reads() as reads:  # the files a cluster's workers need, and those the entry depends on
         loaded = load(scene, overrides, allow_paths=allow_paths) if data is None else _load_data(data, overrides, allow_paths)
         graph, flat = flatten(loaded, width, integrator)
-    files = tuple((path, _signature(path)) for path in dict.fromkeys(reads))
+    files = tuple((path, file_identity(path)) for path in dict.fromkeys(reads))
     nbytes = sum(a.nbytes for a in flat if isinstance(a, np.ndarray))
     entry = _Prepared(files, loaded, graph, flat, list(reads), nbytes)
     if key is not None:

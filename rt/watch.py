@@ -38,6 +38,8 @@ from pathlib import Path
 from typing import Callable, Optional
 from urllib.parse import urlsplit
 
+from scenefmt.assets import file_identity  # what a save changes: polled for every file the scene read
+
 POLL_SECONDS = 0.05
 FRAME_SECONDS = 0.5  # at most one full-size image this often, and always the last
 PREVIEW_WIDTH = 160  # the first pass: a quarter of the width, at most this many pixels, 1 sample
@@ -148,14 +150,6 @@ def preview_scene(loaded, flat, width: int, integrator: Optional[str] = None):
     return graph, flat._replace(camera=np.array(camera_values(graph), np.float64))
 
 
-def _signature(path: str):
-    try:
-        info = os.stat(path)
-    except OSError:
-        return None
-    return (info.st_mtime_ns, info.st_size, info.st_ino)
-
-
 class Previewer:
     """Renders the scene again whenever a file it read changes; posts what it has to the board."""
 
@@ -167,7 +161,7 @@ class Previewer:
         self.changed = threading.Event()
         self.lock = threading.Lock()
         scene = os.path.abspath(opts.scene)
-        self.watched: dict[str, object] = {scene: _signature(scene)}
+        self.watched: dict[str, object] = {scene: file_identity(scene)}
         self.generation = 0
         self.version = 0
         self.saved_at: Optional[float] = None  # when the poller saw the change being rendered
@@ -194,10 +188,10 @@ class Previewer:
         while not self.stopping.wait(POLL_SECONDS):
             with self.lock:
                 watched = dict(self.watched)
-            if any(_signature(path) != seen for path, seen in watched.items()):
+            if any(file_identity(path) != seen for path, seen in watched.items()):
                 with self.lock:
                     if self.watched == watched:  # not replaced by a reload meanwhile
-                        self.watched = {path: _signature(path) for path in watched}
+                        self.watched = {path: file_identity(path) for path in watched}
                         self.saved_at = time.perf_counter()
                         self.changed.set()
 
@@ -206,8 +200,8 @@ class Previewer:
         so a save during the load still counts as a change."""
         paths = [os.path.abspath(self.opts.scene)] + paths
         with self.lock:
-            self.watched = {p: before[p] if p in before else _signature(p) for p in dict.fromkeys(paths)}
-            if any(_signature(p) != s for p, s in self.watched.items()):
+            self.watched = {p: before[p] if p in before else file_identity(p) for p in dict.fromkeys(paths)}
+            if any(file_identity(p) != s for p, s in self.watched.items()):
                 self.changed.set()
 
     # -- rendering

@@ -87,7 +87,12 @@ def dask_cluster(folder: Path, nanny: bool = True):
                                        "--no-dashboard", "--host", "127.0.0.1", *([] if nanny else ["--no-nanny"])],
                                       stdout=log, stderr=log, env=env, start_new_session=True, cwd=folder)
             processes.append(worker)
-            yield address, scheduler, worker  # `rt render` waits for the worker to join
+            # `rt render` would wait for the worker to join, but it says how many workers it found
+            # when it connects: wait until the worker has registered, so that figure is 1.
+            while "Registered to:" not in logs.read_text():
+                assert worker.poll() is None and time.monotonic() < deadline + 60, "the worker did not join"
+                time.sleep(0.1)
+            yield address, scheduler, worker
         finally:
             for process in reversed(processes):
                 end(process)

@@ -7,7 +7,9 @@ the same declaration by name (`MAT_FUZZ = MATERIAL_F.offset("fuzz")`), which Num
 in as literals. So a column's position is written down in one place only, and a misspelt name
 fails at import, not as a wrong number in an image.
 
-`docs/architecture.md` prints every declaration (`python -m renderer.columns`).
+This module declares the vocabulary and imports no category: each category imports it to
+declare its own layouts, and `renderer/declared_tables.py` lists them all for the docs
+(`python -m renderer.declared_tables` prints what `docs/architecture.md` shows).
 """
 
 from __future__ import annotations
@@ -101,25 +103,3 @@ def describe_all(layouts: Iterable[Layout]) -> str:
     for layout in layouts:
         lines += layout.describe()
     return "\n".join(lines)
-
-
-def declared_layouts() -> list[Layout]:
-    """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
-    from . import background, camera, environment, lights, materials, media, textures
-    from .kernels import traverse
-    from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
-
-    return [
-        PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F,
-        meshes.TRIANGLE_I, meshes.MESH_I,
-        materials.MATERIAL_I, materials.MATERIAL_F,
-        textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
-        traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,
-        camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND, background.IMAGE_BACKGROUND,
-        environment.ENV_ROW_F, environment.ENV_TEXEL_F,
-        lights.LIGHT_I, lights.LIGHT_F,
-    ]
-
-
-if __name__ == "__main__":
-    print(describe_all(declared_layouts()))

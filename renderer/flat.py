@@ -1,7 +1,7 @@
 """The flat scene: every table the kernels read, as one NamedTuple of numpy arrays.
 
 Each table's columns are declared once, beside the code that writes and reads them (see
-`columns.py`; `python -m renderer.columns` prints them all). Tables are few and wide on
+`columns.py`; `python -m renderer.declared_tables` prints them all). Tables are few and wide on
 purpose: Numba passes each array to a function as a struct of several words, so the hot
 functions take a handful of arrays rather than the whole tuple.
 """

@@ -4,7 +4,9 @@ A scene may name one file many times: eight shapes of one mesh, or one texture a
 `./a.png`, `sub/../a.png`, an absolute path and a symbolic link. `AssetCache` keys what was read
 by the file's identity (device, inode, size and modification time, from `os.stat`), not by the
 spelling, so each file is read and decoded once per load; a failure is kept too, so a broken
-file is read once and reported at every place that names it.
+file is read once and reported at every place that names it. Which files a scene depends on
+(`rt watch`, a cluster's package) is recorded where each name is looked up
+(`named_files.locate_named_file`), so a file read once is still recorded for every name.
 """
 
 from __future__ import annotations
@@ -12,8 +14,6 @@ from __future__ import annotations
 import os
 import re
 from typing import Callable, Optional
-
-from .files import record_read
 
 
 def file_identity(path) -> Optional[tuple]:
@@ -47,8 +47,6 @@ class AssetCache:
                 raise  # not the file's fault: another try may succeed
             except Exception as exc:  # noqa: BLE001 - kept and raised again for every name of the file
                 self._made[key] = (False, exc)
-        else:
-            record_read(path)  # still a file the scene depends on (rt watch)
         ok, value = self._made[key]
         if not ok:
             raise value

@@ -72,8 +72,10 @@ def kind_of(mode: int) -> str | None:
 @contextlib.contextmanager
 def recording_reads():
     """Collect the absolute path of every file opened here while inside (a scene file, the files
-    it includes, its textures and meshes; also those that could not be opened): what `rt watch`
-    watches for changes. Yields the list, filled as files are opened."""
+    it includes, its textures and meshes; also those that could not be opened), and of every name
+    a scene's files were looked up by (named_files.locate_named_file, found or not): what `rt
+    watch` polls for changes and a cluster client sends its workers. Yields the list, filled as
+    files are looked up and opened."""
     seen: list[str] = []
     token = _reads.set(seen)
     try:
@@ -84,8 +86,8 @@ def recording_reads():
 
 def record_read(path) -> None:
     """Add `path` to the files `recording_reads` collects, if it is active: every file opened
-    here is, and a caller that finds a file missing before opening it says so with this (then
-    `rt watch` reloads when the file is created)."""
+    here is, and so is every name `named_files.locate_named_file` looks up, found or not (a
+    missing one too: `rt watch` reloads when it is created)."""
     log = _reads.get()
     if log is not None:
         log.append(os.path.abspath(os.fsdecode(path)))

@@ -16,10 +16,11 @@ from typing import Optional, Union
 from . import affine, bounds
 from .affine import Affine
 from .diagnostics import Diagnostic, SceneError, did_you_mean, format_path, quote_key
-from .files import FileProblem, describe_os_error, open_regular_file, outside_problem, path_problem, record_read
+from .files import FileProblem, open_regular_file
 from .assets import AssetCache, memory_message
 from .hdr_files import HdrProblem, hdr_header, hdr_peak, is_hdr
 from .loading import SourceDocument
+from .named_files import NamedFileProblem, locate_named_file
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
 from .media import ConstantMedium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
@@ -317,12 +318,12 @@ class _Resolver:
         """Set the checked file of an image texture node, and the peak of a float one; after
         reporting why, no file."""
         file, where = node.model.file, node.path + ("file",)
-        node.image_path = self.image_file(file, where)
+        node.image_path = self.named_file("image file", file, where)
         if node.image_path is None:
             return
         try:
             node.image_size = self.assets.get("image", node.image_path, lambda: image_header(node.image_path))
-        except ImageProblem as exc:  # a scene without a document: its files are checked only here
+        except ImageProblem as exc:
             self.error(where, f"image file '{file}' {exc}")
             node.image_path = None
             return
@@ -347,34 +348,17 @@ class _Resolver:
                 self.error(where, f"image file '{file}': " + memory_message(exc, "decode it", need))
                 node.image_path = None
 
-    def image_file(self, file: str, path: tuple) -> Optional[Path]:
-        if self.doc is None:
-            return Path(file)
-        problem = path_problem(file)
-        if problem:
-            self.error(path, f"image file {file!r}: {problem}")
-            return None
+    def named_file(self, kind: str, name: str, path: tuple) -> Optional[Path]:
+        """The real path of the file `name` written at `path`, by the one rule for every file a
+        scene names (named_files.py: relative to the file that writes it, inside the allowed
+        folders, recorded); None after reporting why. Without a document, names are relative to
+        the current folder, as for a scene given as data."""
+        folder = self.doc.base_dir_of(path) if self.doc is not None else Path.cwd()
         try:
-            resolved = (self.doc.base_dir_of(path) / file).resolve()
-            exists = resolved.exists()
-        except (OSError, RuntimeError, ValueError) as exc:  # a symlink loop, a name too long
-            reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
-            self.error(path, f"image file {file!r}: {reason}")
+            return locate_named_file(kind, name, folder)
+        except NamedFileProblem as exc:
+            self.error(path, str(exc))
             return None
-        outside = outside_problem(self.doc.base_dir_of(path) / file)  # as named: the message says if a link leads out
-        if outside:
-            self.error(path, f"image file '{file}' is {outside}")
-            return None
-        if not exists:
-            record_read(resolved)  # looked for: watched, so that creating it counts as a change
-            self.error(path, f"image file '{file}' not found (looked for {resolved})")
-            return None
-        try:
-            self.assets.get("image", resolved, lambda: image_header(resolved))
-        except ImageProblem as exc:
-            self.error(path, f"image file '{file}' {exc}")
-            return None
-        return resolved
 
     # --- materials and media -------------------------------------------------------------------
 
@@ -534,25 +518,8 @@ class _Resolver:
                 return None
         else:
             where, name = path + ("file",), f"mesh file '{model.file}'"
-            problem = path_problem(model.file)
-            if problem:
-                self.error(where, f"mesh file {model.file!r}: {problem}")
-                return None
-            base = self.doc.base_dir if self.doc is not None else Path(".")
-            try:
-                resolved = (base / model.file).resolve()
-                exists = resolved.exists()
-            except (OSError, RuntimeError, ValueError) as exc:
-                reason = describe_os_error(exc) if isinstance(exc, OSError) else "the path runs through a loop of symbolic links"
-                self.error(where, f"{name}: {reason}")
-                return None
-            outside = outside_problem(base / model.file)
-            if outside:
-                self.error(where, f"{name} is {outside}")
-                return None
-            if not exists:
-                record_read(resolved)  # looked for: watched, so that creating it counts as a change
-                self.error(where, f"{name} not found (looked for {resolved})")
+            resolved = self.named_file("mesh file", model.file, where)
+            if resolved is None:
                 return None
             try:
                 mesh = self.assets.get("mesh", resolved, lambda: read_mesh(resolved))

@@ -1,6 +1,7 @@
 """`include:`: a scene's named definitions and shapes split over several files, merged into one.
 
-A scene (or an included file) may list files under `include:`, relative to its own folder. The
+A scene (or an included file) may list files under `include:`, relative to its own folder (the
+rule for every file a scene names: `named_files.py`). The
 named definitions (`textures`, `materials`, `media`, `groups`) and the `shapes` of each are
 merged into the including scene; everything else (camera, image, ...) belongs to the main file
 alone. Included files may include others. The merged scene is one `SourceDocument` whose
@@ -21,8 +22,9 @@ from pathlib import Path
 from typing import Any
 
 from .diagnostics import Diagnostic, SceneError, did_you_mean, quote_key
-from .files import FileProblem, outside_problem, path_problem, read_regular_file
+from .files import FileProblem, read_regular_file
 from .loading import MAX_FILE_BYTES, STDIN_NAME, SourceDocument, parse_bytes
+from .named_files import NamedFileProblem, locate_named_file
 
 MAX_INCLUDE_DEPTH = 16
 MAX_INCLUDED_FILES = 256
@@ -61,20 +63,12 @@ class _Composer:
         def error(message: str) -> None:
             self.errors.append(doc.diagnostic(at, message))
 
-        problem = path_problem(name)
-        if problem:
-            error(f"included file {name!r}: {problem}")
-            return
-        path = doc.base_dir / name
-        outside = outside_problem(path)
-        if outside:  # before anything is looked up: a file outside is not even probed
-            error(f"included file '{name}' is {outside}")
-            return
         try:
-            real = os.path.realpath(path)
-        except (OSError, ValueError) as exc:
-            error(f"included file {name!r}: {exc}")
+            path = locate_named_file("included file", name, doc.base_dir)
+        except NamedFileProblem as exc:
+            error(str(exc))
             return
+        real = str(path)
         if real in stack:
             chain = " -> ".join(os.path.basename(p) for p in stack[stack.index(real):] + [real])
             error(f"include cycle: {chain}")

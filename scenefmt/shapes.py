@@ -447,8 +447,8 @@ class Mesh(SurfaceBase):
         None,
         min_length=1,
         max_length=4096,
-        description="OBJ or PLY file (by its suffix, `.obj` or `.ply`), relative to the scene file's folder. "
-        "Give either `file` or `vertices` and `faces`.",
+        description="OBJ or PLY file (by its suffix, `.obj` or `.ply`), relative to the folder of the file that names "
+        "it (an included file's own folder). Give either `file` or `vertices` and `faces`.",
     )
     vertices: Vertices = Field(None, description="Inline mesh: the vertex positions, a list of [x, y, z].")
     faces: Faces = Field(

@@ -151,8 +151,8 @@ def scene_folder(path) -> Path:
 
 def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None, overrides: Iterable[str] = (),
           allow_paths: Iterable = ()) -> LoadedScene:
-    """Like `load`, from text (includes are relative to `base_dir`, by default the current folder,
-    which is also the folder its files may be read from)."""
+    """Like `load`, from text (the files it names are relative to `base_dir`, by default the current
+    folder, which is also the folder its files may be read from)."""
     home = Path(base_dir) if base_dir is not None else Path.cwd()
     with paused_gc(), reading_within(allowed_folders(home, allow_paths)):
         return check_document(compose(parse_text(text, file, syntax, base_dir=base_dir), overrides))
@@ -160,7 +160,7 @@ def loads(text: str, syntax: str = "yaml", file: str = "<string>", base_dir=None
 
 def load_stream(stream, overrides: Iterable[str] = (), syntax: Optional[str] = None, allow_paths: Iterable = ()) -> LoadedScene:
     """Like `load`, from a binary stream (standard input), bounded as a file is; relative paths in it
-    (includes, image textures) resolve from the current folder, and files are read only from there
+    (includes, images, meshes) resolve from the current folder, and files are read only from there
     (and `allow_paths`)."""
     with paused_gc(), reading_within(allowed_folders(Path.cwd(), allow_paths)):
         return check_document(compose(parse_stream(stream, syntax=syntax), overrides))

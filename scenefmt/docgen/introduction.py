@@ -53,13 +53,19 @@ shapes:
   `parts/room.yaml:4:60: error: shapes[1].material: undefined material 'glas'; did you mean
   'glass'? (included from scene.yaml:2:28)`. Includes nest at most 16 deep, at most 256 files
   and 128 MiB in all; `include: materials.yaml` is one file.
+- **Relative file names.** Every file a scene names (includes, image textures, environment
+  maps, meshes) follows one rule: a relative name is relative to the folder of the file that
+  writes it, so `parts/robot.yaml` names its mesh `arm.obj` for `parts/arm.obj`, as it names its
+  textures and includes; an absolute name stands. A name given by `--set` is relative to the main
+  file's folder. Before this rule a mesh inside an included file was looked for in the main
+  scene's folder; such a scene now names it relative to the included file.
 - **Files a scene may read.** Every file a scene names (includes, image textures, environment
   maps, meshes, and those given by `--set`) must lie inside the main scene file's folder, after
   symbolic links are resolved (for standard input, the current folder); anything else is
-  refused before it is opened, at its key path. `--allow-path DIR` (repeatable, on `rt render`,
-  `rt validate` and `rt watch`) and `allow_paths=[...]` (`rt.render`, `rt.load`, `rt.validate`)
-  add folders. A file named where a scene is expected that is not one gets one error that
-  quotes nothing of it.
+  refused before it is opened, at its key path, with the same sentence for every kind of file.
+  `--allow-path DIR` (repeatable, on `rt render`, `rt validate` and `rt watch`) and
+  `allow_paths=[...]` (`rt.render`, `rt.load`, `rt.validate`) add folders. A file named where
+  a scene is expected that is not one gets one error that quotes nothing of it.
 - **Changing a value from the command line.** `rt render` and `rt validate` take
   `--set KEY.PATH=VALUE` (repeatable): `--set image.samples_per_pixel=64 --set
   materials.glass.ior=1.33 --set 'shapes[2].center=[0, 1, 0]'`. `VALUE` is read as YAML and
@@ -73,7 +79,7 @@ shapes:
   at most 1 MiB. `include` cannot be set.
 - **Standard input.** `rt render -` and `rt validate -` read the scene from standard input
   (YAML or JSON, detected from the first character, or given by `--format yaml|json`); its
-  includes and image files are relative to the current folder. Started with standard input
+  includes, images and meshes are relative to the current folder. Started with standard input
   closed (`rt validate - <&-`), both say `error: standard input is closed` and exit 2.
 
 **What the JSON Schema checks, and what only `rt validate` can.** The schema in `schemas/`

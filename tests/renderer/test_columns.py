@@ -4,7 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from renderer.columns import Column, Layout, declared_layouts, describe_all
+from renderer.columns import Column, Layout, describe_all
+from renderer.declared_tables import declared_layouts
 from renderer.materials import MAT_FUZZ, MAT_IOR, MATERIAL_F
 from renderer.shapes.spheres import MOVING_SPHERE_F, SPHERE_F
 
@@ -42,4 +43,4 @@ def test_every_layout_fits_its_table_and_the_architecture_doc_lists_them_all():
     table = describe_all(layouts)
     text = DOC.read_text()
     listed = text.split("<!-- declared tables -->\n", 1)[1].split("\n<!-- /declared tables -->", 1)[0]
-    assert listed == table, "docs/architecture.md is stale: paste `python -m renderer.columns` between its markers"
+    assert listed == table, "docs/architecture.md is stale: paste `python -m renderer.declared_tables` between its markers"

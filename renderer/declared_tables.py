@@ -1,0 +1,34 @@
+"""Every table layout the renderer declares, gathered from the categories that declare them.
+
+Each category declares its own layouts with `renderer.columns` (the vocabulary, which imports no
+category); this module is the one place that knows them all, in the order `docs/architecture.md`
+lists them. It is read only by the docs printer and its test, so the categories it imports cost
+nothing on the render path:
+
+    python -m renderer.declared_tables   # the table between the markers in docs/architecture.md
+"""
+
+from __future__ import annotations
+
+from . import background, camera, environment, lights, materials, media, textures
+from .columns import Layout, describe_all
+from .kernels import traverse
+from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
+
+
+def declared_layouts() -> list[Layout]:
+    """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
+    return [
+        PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F,
+        meshes.TRIANGLE_I, meshes.MESH_I,
+        materials.MATERIAL_I, materials.MATERIAL_F,
+        textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,
+        traverse.NODE_I, traverse.INSTANCE_I, traverse.INSTANCE_F, traverse.TLAS_F, traverse.TLAS_I,
+        camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND, background.IMAGE_BACKGROUND,
+        environment.ENV_ROW_F, environment.ENV_TEXEL_F,
+        lights.LIGHT_I, lights.LIGHT_F,
+    ]
+
+
+if __name__ == "__main__":
+    print(describe_all(declared_layouts()))

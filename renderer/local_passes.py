@@ -22,6 +22,8 @@ FIRST_BAND_ROWS_PER_THREAD = 2
 # A band may be this many times the rows of the band before it: the first bands' speed is
 # measured on few rows.
 BAND_GROWTH = 8
+# A pass should take about this long: short enough for progress and a stop between passes.
+PASS_SECONDS = 0.25
 
 
 class Bands:
@@ -101,6 +103,17 @@ class LocalPasses:
         self.batch = 1  # samples in the next pass
         self.film: Optional[Film] = None
         self.render_pass = None
+
+    @classmethod
+    def for_frame(cls, flat: FlatScene, frame, *, seed: Optional[int] = None, max_depth: Optional[int] = None,
+                  pass_seconds: float = PASS_SECONDS) -> "LocalPasses":
+        """The executor for `flat` with the image settings of `frame` (a flat.Frame), `seed` and
+        `max_depth` overriding the scene's, on Numba's render threads."""
+        import numba
+
+        return cls(flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
+                   depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
+                   pass_seconds=pass_seconds, threads=numba.get_num_threads())
 
     def _load(self, chosen: KernelFeatures, notify) -> KernelTime:
         """The render pass of kernel `chosen`, compiled or loaded (and run once on one pixel)

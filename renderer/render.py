@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable, Optional
 
-from .local_passes import Bands, LocalPasses
+from .local_passes import PASS_SECONDS, Bands, LocalPasses
 from .film import Film
 from .flat import FlatScene, Frame
 from .session import RenderResult, RenderStats, render_progressively
@@ -21,8 +21,6 @@ if TYPE_CHECKING:
     from scenefmt.graph import SceneGraph
 
 __all__ = ["render", "render_flat", "RenderResult", "RenderStats", "Bands", "PASS_SECONDS"]
-
-PASS_SECONDS = 0.25
 
 
 def render(graph: SceneGraph, *, flat: Optional[FlatScene] = None, **options) -> RenderResult:
@@ -65,14 +63,10 @@ def render_flat(
     `features`) are those of `session.render_progressively`. `pass_seconds` is about how long a
     pass, and a band of a pass, should take.
     """
-    import numba
-
-    target = samples if samples is not None else frame.samples
-    executor = LocalPasses(flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
-                           depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
-                           pass_seconds=pass_seconds, threads=numba.get_num_threads())
+    executor = LocalPasses.for_frame(flat, frame, seed=seed, max_depth=max_depth, pass_seconds=pass_seconds)
     if film is None:
         film = Film.empty(frame.width, frame.height)
+    target = samples if samples is not None else frame.samples
     return render_progressively(executor, film, target=target, needed=needed, kernel=kernel, features=features,
                                 progress=progress, should_stop=should_stop, time_budget=time_budget,
                                 noise_target=noise_target, notify=notify)

@@ -211,6 +211,16 @@ class ClusterRounds:
         self.running: dict = {}  # future -> (tile index, round)
         self.started_chunks = False
 
+    @classmethod
+    def for_frame(cls, client, package: chunks.ScenePackage, flat, frame, *, seed: Optional[int] = None,
+                  max_depth: Optional[int] = None, chunk_seconds: float = chunks.CHUNK_SECONDS,
+                  warm_kernel: bool = True) -> "ClusterRounds":
+        """The executor for `flat` with the image settings of `frame`, `seed` and `max_depth`
+        overriding the scene's."""
+        return cls(client, package, flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
+                   depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
+                   chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
+
     def start(self, film, features, notify=None):
         from renderer.executor import KernelTime
         from renderer.variants import is_compiled
@@ -391,6 +401,15 @@ class ClusterRounds:
                 pass
 
 
+def cluster_executor(connection: Connection, package: chunks.ScenePackage, flat, frame, *, seed: Optional[int] = None,
+                     max_depth: Optional[int] = None) -> ClusterRounds:
+    """The executor of a render on `connection`'s cluster: workers this connection started
+    load the tile kernel this process warms (Connection.local)."""
+    _distributed()
+    return ClusterRounds.for_frame(connection.client, package, flat, frame, seed=seed, max_depth=max_depth,
+                                   warm_kernel=connection.local)
+
+
 def render_on_cluster(
     client,
     package: chunks.ScenePackage,
@@ -417,9 +436,8 @@ def render_on_cluster(
     from renderer.film import Film
     from renderer.session import render_progressively
 
-    executor = ClusterRounds(client, package, flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
-                             depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
-                             chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
+    executor = ClusterRounds.for_frame(client, package, flat, frame, seed=seed, max_depth=max_depth,
+                                       chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
     if film is None:
         film = Film.empty(frame.width, frame.height)
     return render_progressively(executor, film, target=samples if samples is not None else frame.samples, needed=features,

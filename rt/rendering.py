@@ -76,22 +76,24 @@ def sample_target(spp: Optional[int], frame: Frame, budgeted: bool) -> int:
 
 
 def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, target: int, kernel: str = "auto",
-                 threads: Optional[int] = None, connection=None, package=None, progress=None, **options):
+                 threads: Optional[int] = None, connection=None, package=None, progress=None, max_depth: Optional[int] = None,
+                 seed: Optional[int] = None, film=None, **options):
     """Render a flattened scene: on the cluster of `connection` (rt.cluster.Connection, with the
     scene's `package`) if one is given, else in this process. The one way `rt render` and
-    rt.render render; a RenderResult. Both paths are the render session
-    (renderer/session.py), with the local executor or the cluster's.
+    rt.render render: the render session (renderer/session.py) with the cluster's executor or
+    the local one; a RenderResult.
 
     `features`: the kernel paths the scene needs (variants.features_of); `kernel`: one of
     KERNEL_CHOICES; `target`: samples per pixel (`sample_target`); `threads` (checked by
-    `option_problem`): Numba's threads for this render only. A `Progress` given as `progress`
-    draws its final figures and is closed. `options` are those render_flat and
-    render_on_cluster share: max_depth, seed, film, should_stop, time_budget, noise_target, notify.
+    `option_problem`): Numba's threads for this render only; `max_depth`, `seed` override the
+    scene's; `film` continues a resumed render. A `Progress` given as `progress` draws its final
+    figures and is closed. `options` are the session's: should_stop, time_budget, noise_target, notify.
     """
     import numba
 
-    from renderer.render import render_flat
-    from renderer.variants import first_kernel
+    from renderer.film import Film
+    from renderer.local_passes import LocalPasses
+    from renderer.session import render_progressively
 
     from .progress import Progress
 
@@ -100,12 +102,15 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
         if threads is not None:
             numba.set_num_threads(threads)
         if connection is not None:
-            from .cluster import render_on_cluster
+            from .cluster import cluster_executor
 
-            result = render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features, kernel),
-                                       samples=target, progress=progress, warm_kernel=connection.local, **options)
+            executor = cluster_executor(connection, package, flat, frame, seed=seed, max_depth=max_depth)
         else:
-            result = render_flat(flat, frame, samples=target, progress=progress, needed=features, kernel=kernel, **options)
+            executor = LocalPasses.for_frame(flat, frame, seed=seed, max_depth=max_depth)
+        if film is None:
+            film = Film.empty(frame.width, frame.height)
+        result = render_progressively(executor, film, target=target, needed=features, kernel=kernel, progress=progress,
+                                      **options)
         if isinstance(progress, Progress):
             progress.finish(result.stats)
         return result
@@ -113,5 +118,3 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
         numba.set_num_threads(before)
         if isinstance(progress, Progress):
             progress.close()
-
-

@@ -17,7 +17,7 @@ import os
 import queue
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Optional
+from typing import Any, Optional
 
 from renderer.executor import ExecutorFailed
 
@@ -296,7 +296,8 @@ class ClusterRounds:
 
     # -- failures
 
-    def _failure(self, message: str, lost: bool = False) -> ClusterError:
+    @staticmethod
+    def _failure(message: str, lost: bool = False) -> ClusterError:
         """The error that ends the render; the session adds the film merged so far (every whole round)."""
         return (ClusterLost if lost else ClusterError)(message)
 
@@ -410,39 +411,23 @@ def cluster_executor(connection: Connection, package: chunks.ScenePackage, flat,
                                    warm_kernel=connection.local)
 
 
-def render_on_cluster(
-    client,
-    package: chunks.ScenePackage,
-    flat,
-    frame,
-    *,
-    features,
-    samples: Optional[int] = None,
-    max_depth: Optional[int] = None,
-    seed: Optional[int] = None,
-    film=None,
-    progress: Optional[Callable] = None,
-    should_stop: Optional[Callable[[], bool]] = None,
-    time_budget: Optional[float] = None,
-    noise_target: Optional[float] = None,
-    notify: Optional[Callable[[str], None]] = None,
-    chunk_seconds: float = chunks.CHUNK_SECONDS,
-    warm_kernel: bool = True,
-):
+def render_on_cluster(client, package: chunks.ScenePackage, flat, frame, *, features, samples: Optional[int] = None,
+                      max_depth: Optional[int] = None, seed: Optional[int] = None, film=None,
+                      chunk_seconds: float = chunks.CHUNK_SECONDS, warm_kernel: bool = True, **session_options):
     """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
     same options and the same result (a RenderResult): the render session with a ClusterRounds
-    executor. The image is the local one bit for bit; `features` is the kernel the workers use."""
+    executor. The image is the local one bit for bit; `features` is the kernel the workers use;
+    `session_options` are renderer.session.render_progressively's (progress, should_stop,
+    time_budget, noise_target, notify)."""
     _distributed()
     from renderer.film import Film
     from renderer.session import render_progressively
 
     executor = ClusterRounds.for_frame(client, package, flat, frame, seed=seed, max_depth=max_depth,
                                        chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
-    if film is None:
-        film = Film.empty(frame.width, frame.height)
-    return render_progressively(executor, film, target=samples if samples is not None else frame.samples, needed=features,
-                                features=features, progress=progress, should_stop=should_stop, time_budget=time_budget,
-                                noise_target=noise_target, notify=notify)
+    return render_progressively(executor, film if film is not None else Film.empty(frame.width, frame.height),
+                                target=samples if samples is not None else frame.samples, needed=features, features=features,
+                                **session_options)
 
 
 class WorkerWatch:

@@ -33,7 +33,7 @@ def main() -> None:
     import rt
     from rt import chunks
     from rt.cluster import package_scene, render_on_cluster
-    from rt.render_job import flatten
+    from renderer.session import flatten_loaded as flatten
     from renderer.flat import Frame
     from renderer.variants import GENERAL
     from scenefmt.files import recording_reads

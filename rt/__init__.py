@@ -4,18 +4,13 @@ From Python (see the README): `img = rt.render("scene.yaml", spp=64)`, then `img
 `img.noise`, `img.save("out.exr")`; `rt.load` and `rt.validate` give the models and the
 diagnostics. The command line is `rt` (`rt.cli`). Importing rt loads neither Numba nor the
 renderer: they load with the first render.
+
+Importing rt changes nothing in the process (no environment variable, no thread setting): the
+command line and `rt.render` ask for one BLAS thread when they start (rendering.limit_blas_threads).
 """
 
-import os
+from scenefmt.diagnostics import Diagnostic, SceneError
 
-# numpy's BLAS threads spin after a call; on a 2-core machine they would take a core from the
-# renderer's own threads. The renderer does no heavy linear algebra, so one BLAS thread suffices.
-# Set here, before any part of the program imports numpy.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-from scenefmt.diagnostics import Diagnostic, SceneError  # noqa: E402  (after the environment)
-
-from .api import Image, Validation, load, render, validate  # noqa: E402
+from .api import Image, Validation, load, render, validate
 
 __all__ = ["render", "load", "validate", "Image", "Validation", "SceneError", "Diagnostic"]

@@ -15,6 +15,9 @@ import gc
 def run() -> None:
     gc.disable()
     try:
+        from .rendering import limit_blas_threads
+
+        limit_blas_threads()  # before anything imports numpy
         from .cli import app
 
         app(prog_name="rt")

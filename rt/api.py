@@ -3,9 +3,9 @@
 A process that calls `rt.render` more than once pays for imports and kernel loading once: the
 second call of a small image takes milliseconds, not the second or so of a new `rt render`
 process. It also keeps the scenes it prepared last (`_prepare`), so rendering an unchanged scene
-again skips loading and flattening it. The steps are those of `rt render` (`rt.render_job.flatten`, `option_problem`,
-`sample_target`, `render_scene`), so the same scene, seed and sample count give the same image
-bit for bit as `rt render --hdr out.pfm`.
+again skips loading and flattening it. The steps are those of `rt render` (the render session's
+`flatten_loaded`, and rt/rendering.py's `option_problem`, `sample_target`, `render_scene`), so the
+same scene, seed and sample count give the same image bit for bit as `rt render --hdr out.pfm`.
 
 Nothing heavy is imported here at module level: `import rt` stays as quick as `rt validate`.
 """
@@ -197,7 +197,10 @@ class Image:
         path = Path(path)
         image = self.film.mean()
         if exposure:
-            if path.suffix.lower() != ".png":
+            from .outputs import format_of
+
+            found = format_of(path)
+            if found is None or found.role != "image":
                 raise ValueError("exposure applies to a PNG only; .pfm and .exr keep the rendered radiance")
             image = image * 2.0 ** exposure
         write_image(path, image)
@@ -225,7 +228,7 @@ def _seconds(time: Union[None, float, int, str]) -> Optional[float]:
     if time is None:
         return None
     if isinstance(time, str):
-        from .render_job import parse_duration
+        from .rendering import parse_duration
 
         seconds = parse_duration(time)
         if seconds is None:
@@ -320,7 +323,7 @@ def _prepare(scene: SceneLike, overrides: tuple, width: Optional[int], integrato
     from scenefmt.files import recording_reads
     from scenefmt.validation import LoadedScene
 
-    from .render_job import flatten
+    from renderer.session import flatten_loaded
 
     data = key = None
     if isinstance(scene, (str, Path)):
@@ -337,7 +340,7 @@ def _prepare(scene: SceneLike, overrides: tuple, width: Optional[int], integrato
         return entry
     with recording_reads() as reads:  # the files a cluster's workers need, and those the entry depends on
         loaded = load(scene, overrides, allow_paths=allow_paths) if data is None else _load_data(data, overrides, allow_paths)
-        graph, flat = flatten(loaded, width, integrator)
+        graph, flat = flatten_loaded(loaded, width, integrator)
     files = tuple((path, file_identity(path)) for path in dict.fromkeys(reads))
     nbytes = sum(a.nbytes for a in flat if isinstance(a, np.ndarray))
     entry = _Prepared(files, loaded, graph, flat, list(reads), nbytes)
@@ -383,10 +386,14 @@ def render(
     """
     import sys
 
+    from .rendering import limit_blas_threads
+
+    limit_blas_threads()  # before numpy loads, if it has not yet
     from renderer.flat import INTEGRATORS, Frame
     from renderer.variants import KERNEL_CHOICES, features_of
 
-    from .render_job import Progress, max_threads, option_problem, render_scene, sample_target
+    from .progress import Progress
+    from .rendering import max_threads, option_problem, render_scene, sample_target
 
     _check_int("spp", spp, 1, 1_000_000)
     _check_int("width", width, 1, 32768)

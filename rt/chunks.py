@@ -165,7 +165,7 @@ def build(package: ScenePackage, features) -> _Built:
         if package.renderer != renderer_version():
             raise ChunkFailed(f"this worker runs other renderer code than the client (kernels {renderer_version()}, "
                               f"the client's {package.renderer}): install the same rt on every machine")
-        from rt.render_job import flatten
+        from renderer.session import flatten_loaded
         from scenefmt.diagnostics import SceneError
         from scenefmt.validation import load_source
 
@@ -179,7 +179,7 @@ def build(package: ScenePackage, features) -> _Built:
             try:
                 # Every file the client read (it checked what the scene may read) is under root, and only those.
                 loaded = load_source(Path(_rooted(root, package.main)), package.overrides, package.syntax, allow_paths=[root])
-                _graph, flat = flatten(loaded, package.width, package.integrator)
+                _graph, flat = flatten_loaded(loaded, package.width, package.integrator)
             except SceneError as exc:
                 first = exc.diagnostics[0] if exc.diagnostics else exc
                 raise ChunkFailed(f"the scene does not load on a worker: {first}") from None

@@ -17,10 +17,9 @@ import os
 import queue
 import time
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any, Optional
 
-import numpy as np
+from renderer.executor import ExecutorFailed
 
 from . import chunks
 
@@ -31,15 +30,11 @@ WORKERS_POLL_SECONDS = 2.0  # between asks to the scheduler whether any worker i
 MISSING = "rendering on a cluster needs dask.distributed: pip install '.[cluster]' in rt's folder (or pip install distributed)"
 
 
-class ClusterError(RuntimeError):
+class ClusterError(ExecutorFailed):
     """The cluster cannot be used or a chunk failed; the message is a sentence to show.
 
     `partial`: for a failure once chunks were submitted, the RenderResult of the samples merged
     before it (what `rt render` saves, as after a failed write); None before that."""
-
-    def __init__(self, message: str, partial=None):
-        super().__init__(message)
-        self.partial = partial
 
 
 class ClusterLost(ClusterError):
@@ -186,215 +181,253 @@ def package_scene(main: Optional[str], reads: list, loaded, flat, overrides=(), 
     )
 
 
-def render_on_cluster(
-    client,
-    package: chunks.ScenePackage,
-    flat,
-    frame,
-    *,
-    features,
-    samples: Optional[int] = None,
-    max_depth: Optional[int] = None,
-    seed: Optional[int] = None,
-    film=None,
-    progress: Optional[Callable] = None,
-    should_stop: Optional[Callable[[], bool]] = None,
-    time_budget: Optional[float] = None,
-    noise_target: Optional[float] = None,
-    notify: Optional[Callable[[str], None]] = None,
-    chunk_seconds: float = chunks.CHUNK_SECONDS,
-    warm_kernel: bool = True,
-):
-    """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
-    same options and the same result (a RenderResult); the image is the local one bit for bit.
+class ClusterRounds:
+    """The executor (renderer/executor.py) of a Dask cluster: rounds of tiles, merged in order.
+
+    Each step waits up to POLL_SECONDS for chunks to finish, merges the next round once every
+    tile has finished it (so the film always holds a whole number of samples per pixel) and
+    submits the chunks that may run: a tile's rounds form a chain, and a tile may run
+    `chunks.LOOKAHEAD` rounds ahead of the merged film. Rounds are sized from the speed measured
+    so far (`chunks.next_round_size`) to take about `chunk_seconds` a chunk, within the time left.
 
     `warm_kernel`: compile the tile kernel here first, into the disk cache that workers on this
     machine load from (Connection.local); workers elsewhere compile or load their own, so for
     them it would only delay the render."""
-    distributed = _distributed()
-    from renderer.film import Film, relative_noise
-    from renderer.render import RenderResult, RenderStats, report_progress
-    from renderer.variants import is_compiled
 
-    if client.status != "running":  # it lost its scheduler during an earlier scene of a batch
-        raise ClusterLost("the cluster's scheduler went away during an earlier render: nothing more can run on it")
-    width, height = frame.width, frame.height
-    target = samples if samples is not None else frame.samples
-    depth = max_depth if max_depth is not None else frame.max_depth
-    seed = seed if seed is not None else frame.seed
-    estimator = frame.estimator
-    stats = RenderStats(target_samples=target, features=features)
-    if film is None:
-        film = Film.empty(width, height)
-    stats.samples = film.samples
+    can_switch_kernel = False  # every worker would have to compile the other kernel
+    stops_on_time_before_first_step = False  # a spent budget still waits for the first round
 
-    if warm_kernel:  # compiled once, here, rather than by every worker process at once
-        if notify is not None and not is_compiled(features, "tile"):
-            notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
-        started = time.perf_counter()
-        chunks.warm_tile_kernel(flat, features)
-        stats.kernel_seconds = time.perf_counter() - started
+    def __init__(self, client, package: chunks.ScenePackage, flat, width: int, height: int, *, seed: int, depth: int,
+                 estimator: int, chunk_seconds: float = chunks.CHUNK_SECONDS, warm_kernel: bool = True):
+        self.client = client
+        self.package = package
+        self.flat = flat
+        self.width, self.height = width, height
+        self.seed, self.depth, self.estimator = seed, depth, estimator
+        self.chunk_seconds = chunk_seconds
+        self.warm_kernel = warm_kernel
+        self.address = None  # the scheduler's, named in the message if it goes away
+        self.scene = None  # the future that holds the package on the cluster
+        self.running: dict = {}  # future -> (tile index, round)
+        self.started_chunks = False
 
-    address = client.scheduler.address  # named in the message if the scheduler goes away
-    try:
-        client.wait_for_workers(1, timeout=WORKERS_SECONDS)
-    except Exception as exc:  # noqa: BLE001 - said in words: a timeout, or a scheduler that went away
-        if client.status == "running" and isinstance(exc, TimeoutError):  # (a TimeoutError is an OSError)
-            raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
-        if client.status != "running" or isinstance(exc, OSError):
-            raise ClusterLost(f"the cluster's scheduler at {address} went away before the render started") from None
-        raise
-    threads = worker_threads(client.scheduler_info()["workers"]) or 1
-    tiles = chunks.plan_tiles(width, height, threads)
-    rounds = chunks.Rounds(film.samples)
-    scene = client.submit(chunks.package_value, package, key=f"rt-scene-{package.key}-{os.urandom(4).hex()}", pure=False)
+    @classmethod
+    def for_frame(cls, client, package: chunks.ScenePackage, flat, frame, *, seed: Optional[int] = None,
+                  max_depth: Optional[int] = None, chunk_seconds: float = chunks.CHUNK_SECONDS,
+                  warm_kernel: bool = True) -> "ClusterRounds":
+        """The executor for `flat` with the image settings of `frame`, `seed` and `max_depth`
+        overriding the scene's."""
+        return cls(client, package, flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
+                   depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
+                   chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
 
-    # Per tile: its sums after the last round it finished, and those of rounds not merged yet.
-    latest = [(t.of(film.total).copy(), t.of(film.total_sq).copy()) for t in tiles]
-    done = [0] * len(tiles)  # rounds each tile has finished
-    ahead: list[dict] = [{} for _ in tiles]  # round -> ChunkResult, for rounds past the merged film
-    merged = 0  # rounds merged into the film
-    running: dict = {}  # future -> (tile index, round)
-    busy: set = set()  # tiles with a chunk running (a tile's rounds form a chain: one at a time)
-    finished = Finished()
-    cost = [0.0, 0]  # chunk seconds, pixel-samples: the measured speed
-    render_start = time.perf_counter()
-    last_noise = render_start
-    stop_submitting = film.samples >= target
-    watch = WorkerWatch(client)
+    def start(self, film, features, notify=None):
+        from renderer.executor import KernelTime
+        from renderer.variants import is_compiled
 
-    def budget_left() -> Optional[float]:
-        return None if time_budget is None else time_budget - (time.perf_counter() - render_start)
+        client = self.client
+        if client.status != "running":  # it lost its scheduler during an earlier scene of a batch
+            raise ClusterLost("the cluster's scheduler went away during an earlier render: nothing more can run on it")
+        self.film, self.features = film, features
+        spent = KernelTime()
+        if self.warm_kernel:  # compiled once, here, rather than by every worker process at once
+            if notify is not None and not is_compiled(features, "tile"):
+                notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
+            started = time.perf_counter()
+            chunks.warm_tile_kernel(self.flat, features)
+            spent = KernelTime(time.perf_counter() - started)
+        self.address = client.scheduler.address
+        try:
+            client.wait_for_workers(1, timeout=WORKERS_SECONDS)
+        except Exception as exc:  # noqa: BLE001 - said in words: a timeout, or a scheduler that went away
+            if client.status == "running" and isinstance(exc, TimeoutError):  # (a TimeoutError is an OSError)
+                raise ClusterError(f"no worker joined the cluster within {WORKERS_SECONDS:g} s ({exc})") from None
+            if client.status != "running" or isinstance(exc, OSError):
+                raise ClusterLost(f"the cluster's scheduler at {self.address} went away before the render started") from None
+            raise
+        self.threads = worker_threads(client.scheduler_info()["workers"]) or 1
+        self.tiles = chunks.plan_tiles(self.width, self.height, self.threads)
+        self.rounds = chunks.Rounds(film.samples)
+        package = self.package
+        self.scene = client.submit(chunks.package_value, package, key=f"rt-scene-{package.key}-{os.urandom(4).hex()}",
+                                   pure=False)
+        # Per tile: its sums after the last round it finished, and those of rounds not merged yet.
+        self.latest = [(t.of(film.total).copy(), t.of(film.total_sq).copy()) for t in self.tiles]
+        self.done = [0] * len(self.tiles)  # rounds each tile has finished
+        self.ahead: list[dict] = [{} for _ in self.tiles]  # round -> ChunkResult, for rounds past the merged film
+        self.merged = 0  # rounds merged into the film
+        self.busy: set = set()  # tiles with a chunk running (a tile's rounds form a chain: one at a time)
+        self.finished = Finished()
+        self.cost = [0.0, 0]  # chunk seconds, pixel-samples: the measured speed
+        self.stop_submitting = False
+        self.watch = WorkerWatch(client)
+        return spent
 
-    def submit(i: int) -> None:
-        r = done[i]
+    def switch_kernel(self, features, notify=None):
+        raise NotImplementedError("a cluster render keeps the kernel it started with")
+
+    # -- submitting
+
+    def _submit(self, i: int, plan) -> None:
+        rounds, tiles = self.rounds, self.tiles
+        r = self.done[i]
         if r >= rounds.planned:
-            if rounds.last_end() >= target or stop_submitting:
+            if rounds.last_end() >= plan.target or self.stop_submitting:
                 return
-            speed = cost[0] / cost[1] if cost[1] else 0.0
+            speed = self.cost[0] / self.cost[1] if self.cost[1] else 0.0
             previous = rounds.bounds[-1] - rounds.bounds[-2] if rounds.planned else 0
-            size = chunks.next_round_size(previous, speed, max(t.pixels for t in tiles), target - rounds.last_end(),
-                                          budget_left(), width * height, threads, chunk_seconds)
+            budget_left = plan.time_left() if plan.time_left is not None else None
+            size = chunks.next_round_size(previous, speed, max(t.pixels for t in tiles), plan.target - rounds.last_end(),
+                                          budget_left, self.width * self.height, self.threads, self.chunk_seconds)
             rounds.plan(size)
         start, count = rounds.range(r)
-        chunk = chunks.Chunk(tiles[i], start, count, width, seed, depth, estimator)
-        total, total_sq = latest[i]
-        future = client.submit(chunks.render_chunk, scene, features, chunk, total, total_sq, pure=False,
-                               key=f"rt-chunk-{package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
-        running[future] = (i, r)
-        busy.add(i)
-        finished.watch(future)
+        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator)
+        total, total_sq = self.latest[i]
+        future = self.client.submit(chunks.render_chunk, self.scene, self.features, chunk, total, total_sq, pure=False,
+                                    key=f"rt-chunk-{self.package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
+        self.running[future] = (i, r)
+        self.busy.add(i)
+        self.finished.watch(future)
 
-    def may_submit(i: int) -> bool:
-        return not stop_submitting and done[i] < merged + chunks.LOOKAHEAD and i not in busy
+    def _submit_what_may_run(self, plan) -> None:
+        for i in range(len(self.tiles)):
+            if not self.stop_submitting and self.done[i] < self.merged + chunks.LOOKAHEAD and i not in self.busy:
+                self._submit(i, plan)
 
-    def failure(message: str, lost: bool = False) -> ClusterError:
-        """The error that ends the render, holding the film merged so far (every whole round)."""
-        stats.seconds = time.perf_counter() - render_start
-        stats.noise = relative_noise(film)
-        kind = ClusterLost if lost else ClusterError
-        return kind(message, RenderResult(film, stats))
+    # -- failures
 
-    def gone() -> ClusterError:
-        return failure(f"the cluster's scheduler at {address} went away after {film.samples} of {target} samples per "
-                       f"pixel (the connection to it is lost)", lost=True)
+    @staticmethod
+    def _failure(message: str, lost: bool = False) -> ClusterError:
+        """The error that ends the render; the session adds the film merged so far (every whole round)."""
+        return (ClusterLost if lost else ClusterError)(message)
 
-    def chunk_result(future) -> chunks.ChunkResult:
+    def _gone(self) -> ClusterError:
+        return self._failure(f"the cluster's scheduler at {self.address} went away after {self.film.samples} of "
+                             f"{self.target} samples per pixel (the connection to it is lost)", lost=True)
+
+    def _chunk_result(self, future) -> chunks.ChunkResult:
         """A finished chunk's result; ClusterError for a chunk that failed, was lost or cancelled."""
         if future.status == "finished":
             try:
                 return future.result()
             except Exception as exc:  # noqa: BLE001 - fetching it failed: the scheduler or a worker is gone
-                if client.status != "running":
-                    raise gone() from None
+                if self.client.status != "running":
+                    raise self._gone() from None
                 fetch = f"a chunk's result could not be fetched from the cluster: {type(exc).__name__}: {exc}"
-                raise failure(fetch) from None
-        if client.status != "running":  # the client cancels every future when it loses the scheduler
-            raise gone()
+                raise self._failure(fetch) from None
+        if self.client.status != "running":  # the client cancels every future when it loses the scheduler
+            raise self._gone()
         if future.status == "error":  # a task Dask gave up on, as when its workers died too often
             exc = future.exception()
-            raise failure(f"a chunk could not be rendered on the cluster: {type(exc).__name__}: {exc}")
-        raise failure(f"a chunk was {future.status} on the cluster before it finished")
+            raise self._failure(f"a chunk could not be rendered on the cluster: {type(exc).__name__}: {exc}")
+        raise self._failure(f"a chunk was {future.status} on the cluster before it finished")
 
-    try:
-        for i in range(len(tiles)):
-            if may_submit(i):
-                submit(i)
-        while running:
-            if should_stop is not None and should_stop():
-                stats.interrupted = True
-                stats.stop_reason = "interrupted"
-                break
-            left = budget_left()
-            if left is not None and left <= 0 and film.samples > rounds.start:
-                stats.stop_reason = "time"
-                break
-            ready = [f for f in finished.wait(POLL_SECONDS) if f in running]
-            if not ready:  # none finished: is anyone still there to finish them?
-                if client.status != "running":
-                    raise gone()
-                if watch.workerless_for() > WORKERS_SECONDS:
-                    raise failure(f"every worker left the cluster (the scheduler at {address}) after {film.samples} of "
-                                  f"{target} samples per pixel, and none joined within {WORKERS_SECONDS:g} s", lost=True)
-            for future in ready:
-                i, r = running.pop(future)
-                busy.discard(i)
-                result = chunk_result(future)
-                if result.error is not None:
-                    raise failure(result.error)
-                latest[i] = (result.total, result.total_sq)
-                ahead[i][r] = result
-                done[i] = r + 1
-                cost[0] += result.seconds
-                cost[1] += tiles[i].pixels * rounds.range(r)[1]
-            # Merge every round that all tiles have finished, in tile order.
-            while merged < rounds.planned and all(merged in a for a in ahead):
-                for tile, a in zip(tiles, ahead):
-                    result = a.pop(merged)
-                    tile.of(film.total)[...] = result.total
-                    tile.of(film.total_sq)[...] = result.total_sq
-                    stats.rays += result.rays
-                    stats.bad_samples += result.bad
-                merged += 1
-                film.samples = rounds.bounds[merged]
-                stats.samples = film.samples
-                stats.seconds = time.perf_counter() - render_start
-                if stats.first_pass_seconds == 0.0:
-                    stats.first_pass_seconds = stats.seconds
-                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
-                if reached:
-                    stats.stop_reason = "noise"
-                    stop_submitting = True
-                    break
-                if film.samples >= target:
-                    stop_submitting = True
-            if stats.stop_reason == "noise":
-                break
-            if left is not None and left <= 0:
-                stop_submitting = film.samples > rounds.start or stop_submitting
-            for i in range(len(tiles)):
-                if may_submit(i):
-                    submit(i)
-    except ClusterError:
-        raise
-    except Exception as exc:
-        # Submitting or asking the scheduler failed: a connection that broke (an OSError, as
-        # distributed's CommClosedError is) or a client that lost the scheduler is said, with the
-        # merged samples; anything else is a bug of ours and keeps its traceback.
-        if client.status != "running" or isinstance(exc, OSError):
-            raise gone() from None
-        raise
-    finally:
+    # -- the steps
+
+    def _round_complete(self) -> bool:
+        return self.merged < self.rounds.planned and all(self.merged in a for a in self.ahead)
+
+    def _merge_round(self):
+        """Merge the next round, which every tile has finished, into the film, in tile order."""
+        from renderer.executor import Step
+
+        film = self.film
+        rays = bad = 0
+        for tile, a in zip(self.tiles, self.ahead):
+            result = a.pop(self.merged)
+            tile.of(film.total)[...] = result.total
+            tile.of(film.total_sq)[...] = result.total_sq
+            rays += result.rays
+            bad += result.bad
+        self.merged += 1
+        added = self.rounds.bounds[self.merged] - film.samples
+        film.samples = self.rounds.bounds[self.merged]
+        if film.samples >= self.target:
+            self.stop_submitting = True
+        return Step(added, rays, bad, 0.0)
+
+    def advance(self, plan, should_stop=None):
+        from renderer.executor import Step
+
+        self.target = plan.target
+        try:
+            if not self.started_chunks:
+                self.started_chunks = True
+                self._submit_what_may_run(plan)
+            if not self._round_complete():
+                self._collect(plan)
+            step = self._merge_round() if self._round_complete() else Step(0, 0, 0, 0.0)
+            if plan.time_left is not None and plan.time_left() <= 0:
+                self.stop_submitting = self.film.samples > self.rounds.start or self.stop_submitting
+            self._submit_what_may_run(plan)
+            return step
+        except ClusterError:
+            raise
+        except Exception as exc:
+            # Submitting or asking the scheduler failed: a connection that broke (an OSError, as
+            # distributed's CommClosedError is) or a client that lost the scheduler is said, with the
+            # merged samples; anything else is a bug of ours and keeps its traceback.
+            if self.client.status != "running" or isinstance(exc, OSError):
+                raise self._gone() from None
+            raise
+
+    def _collect(self, plan) -> None:
+        """Wait up to POLL_SECONDS for chunks to finish and keep their results."""
+        ready = [f for f in self.finished.wait(POLL_SECONDS) if f in self.running]
+        if not ready:  # none finished: is anyone still there to finish them?
+            if self.client.status != "running":
+                raise self._gone()
+            if self.watch.workerless_for() > WORKERS_SECONDS:
+                raise self._failure(f"every worker left the cluster (the scheduler at {self.address}) after {self.film.samples} "
+                                    f"of {plan.target} samples per pixel, and none joined within {WORKERS_SECONDS:g} s", lost=True)
+        for future in ready:
+            i, r = self.running.pop(future)
+            self.busy.discard(i)
+            result = self._chunk_result(future)
+            if result.error is not None:
+                raise self._failure(result.error)
+            self.latest[i] = (result.total, result.total_sq)
+            self.ahead[i][r] = result
+            self.done[i] = r + 1
+            self.cost[0] += result.seconds
+            self.cost[1] += self.tiles[i].pixels * self.rounds.range(r)[1]
+
+    def close(self) -> None:
         # Cancel what is still running (a budget, Ctrl-C, a failure): the film keeps every merged
         # round. A scheduler that is gone has nothing to cancel, and is not waited for.
-        if client.status == "running":
+        if self.scene is not None and self.client.status == "running":
             try:
-                client.cancel([*running, scene], force=True)
+                self.client.cancel([*self.running, self.scene], force=True)
             except Exception:  # noqa: BLE001 - it went away just now: nothing is left to cancel
                 pass
-    stats.seconds = time.perf_counter() - render_start
-    stats.noise = relative_noise(film)
-    return RenderResult(film, stats)
+
+
+def cluster_executor(connection: Connection, package: chunks.ScenePackage, flat, frame, *, seed: Optional[int] = None,
+                     max_depth: Optional[int] = None) -> ClusterRounds:
+    """The executor of a render on `connection`'s cluster: workers this connection started
+    load the tile kernel this process warms (Connection.local)."""
+    _distributed()
+    return ClusterRounds.for_frame(connection.client, package, flat, frame, seed=seed, max_depth=max_depth,
+                                   warm_kernel=connection.local)
+
+
+def render_on_cluster(client, package: chunks.ScenePackage, flat, frame, *, features, samples: Optional[int] = None,
+                      max_depth: Optional[int] = None, seed: Optional[int] = None, film=None,
+                      chunk_seconds: float = chunks.CHUNK_SECONDS, warm_kernel: bool = True, **session_options):
+    """Render on the cluster of `client` as `renderer.render.render_flat` renders here, with the
+    same options and the same result (a RenderResult): the render session with a ClusterRounds
+    executor. The image is the local one bit for bit; `features` is the kernel the workers use;
+    `session_options` are renderer.session.render_progressively's (progress, should_stop,
+    time_budget, noise_target, notify)."""
+    _distributed()
+    from renderer.film import Film
+    from renderer.session import render_progressively
+
+    executor = ClusterRounds.for_frame(client, package, flat, frame, seed=seed, max_depth=max_depth,
+                                       chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
+    return render_progressively(executor, film if film is not None else Film.empty(frame.width, frame.height),
+                                target=samples if samples is not None else frame.samples, needed=features, features=features,
+                                **session_options)
 
 
 class WorkerWatch:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Optional
 
@@ -26,6 +27,43 @@ if TYPE_CHECKING:
     from renderer.state import RenderKey
 
     from .render_job import RenderOptions
+
+
+@dataclass(frozen=True)
+class Format:
+    """A kind of file `rt render` and `Image.save` write, known by its suffix."""
+
+    suffix: str
+    role: str  # "image": 8-bit, for display (the image, --noise-map); "hdr": linear float (--hdr); "state": --save-state
+    needs_exr: bool = False  # written with the optional OpenEXR library (scenefmt.hdr_files.exr_available)
+
+
+# Every output format, in the order messages list them. The one place a suffix is spelt.
+FORMATS = (
+    Format(".png", "image"),
+    Format(".exr", "hdr", needs_exr=True),
+    Format(".pfm", "hdr"),
+    Format(".npz", "state"),
+)
+BY_SUFFIX = {f.suffix: f for f in FORMATS}
+PNG, PFM, STATE = ".png", ".pfm", ".npz"  # the image, the rescued image and the rescued state
+assert all(suffix in BY_SUFFIX for suffix in (PNG, PFM, STATE))
+
+
+def suffixes_of(role: str) -> tuple[str, ...]:
+    """The suffixes of the formats of `role` ("image", "hdr" or "state")."""
+    return tuple(f.suffix for f in FORMATS if f.role == role)
+
+
+def format_of(path) -> Optional[Format]:
+    """The format a file name asks for by its suffix (any case); None for none of ours."""
+    return BY_SUFFIX.get(Path(path).suffix.lower())
+
+
+def needs_exr(path) -> bool:
+    """Whether writing `path` needs the optional OpenEXR library."""
+    found = format_of(path)
+    return found is not None and found.needs_exr
 
 
 def _outputs(opts: "RenderOptions") -> list[tuple[str, Path]]:
@@ -125,10 +163,10 @@ def rescue(film: "Film", key: Optional["RenderKey"], stem: str) -> list[Path]:
         written: list[Path] = []
         try:
             if key is not None:
-                save_state(folder / f"{name}.npz", film, key)
-                written.append(folder / f"{name}.npz")
-            write_pfm(folder / f"{name}.pfm", film.mean())
-            written.append(folder / f"{name}.pfm")
+                save_state(folder / f"{name}{STATE}", film, key)
+                written.append(folder / f"{name}{STATE}")
+            write_pfm(folder / f"{name}{PFM}", film.mean())
+            written.append(folder / f"{name}{PFM}")
             return written
         except OSError:
             continue

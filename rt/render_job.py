@@ -12,12 +12,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Optional
 
+from .outputs import BY_SUFFIX, PNG, needs_exr, suffixes_of
+from .progress import Progress, fmt_seconds
+from .rendering import max_threads, option_problem, parse_duration, render_scene, sample_target
+
 if TYPE_CHECKING:
     from renderer.flat import FlatScene, Frame
     from renderer.variants import KernelFeatures
-
-BUDGET_SAMPLE_CAP = 1_000_000
-
 
 @dataclass(frozen=True)
 class RenderOptions:
@@ -55,7 +56,7 @@ class RenderOptions:
         (`stdin.png` for a scene read from standard input)."""
         if self.output is not None:
             return self.output
-        return Path(("stdin" if self.from_stdin else self.scene.stem) + ".png")
+        return Path(("stdin" if self.from_stdin else self.scene.stem) + PNG)
 
 
 @dataclass(frozen=True)
@@ -75,19 +76,6 @@ class PreparedScene:
     loaded: Optional[object] = None
 
 
-def parse_duration(text: str) -> Optional[float]:
-    """Seconds in '45', '30s', '2m', '1h30m', '1.5h'; None if it is not a duration."""
-    import re
-
-    text = text.strip().lower()
-    if re.fullmatch(r"\d+(\.\d+)?", text):
-        return float(text)
-    parts = re.findall(r"(\d+(?:\.\d+)?)([hms])", text)
-    if not parts or "".join(n + u for n, u in parts) != text:
-        return None
-    return sum(float(n) * {"h": 3600, "m": 60, "s": 1}[u] for n, u in parts)
-
-
 def budget_text(text: str) -> str:
     """A --time value as written, with its unit named when it has none: '2' -> '2 s', '1h30m' as is."""
     import re
@@ -104,13 +92,6 @@ def noise_reached(noise: float, target: float) -> str:
         if shown != wanted:  # the estimate is at most the target, so it shows as less
             return f"the estimated noise {shown}% is below the {wanted}% target"
     return f"the estimated noise has reached the {100 * target:.2f}% target"
-
-
-def fmt_seconds(seconds: float) -> str:
-    if seconds < 60:
-        return f"{seconds:.1f}s"
-    minutes, sec = divmod(int(round(seconds)), 60)
-    return f"{minutes}m{sec:02d}s" if minutes < 60 else f"{minutes // 60}h{minutes % 60:02d}m"
 
 
 class Stop(Exception):
@@ -211,102 +192,6 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
-def render_graph(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
-    """The scene graph of a loaded scene with --width and --integrator applied."""
-    from renderer.compile import with_integrator, with_width
-
-    graph = loaded.graph if width is None else with_width(loaded.graph, width)
-    if integrator is not None:
-        graph = with_integrator(graph, integrator)
-    return graph
-
-
-def flatten(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
-    """(graph, flat tables) of a loaded scene with --width and --integrator applied; raises
-    SceneError (the film too big for memory) or ValueError (an image that does not decode).
-    The one way from a loaded scene to the kernels' tables: `rt render`, rt.render and `rt watch`."""
-    from renderer.compile import compile_scene
-    from scenefmt.bounds import check_memory
-
-    graph = render_graph(loaded, width, integrator)
-    estimate = check_memory(graph, loaded.document)  # --width changes the film's size
-    try:
-        return graph, compile_scene(graph)
-    except MemoryError as exc:  # the estimate allowed it, but the memory is not there (others use it)
-        from scenefmt.assets import memory_message
-
-        raise ValueError(memory_message(exc, "flatten the scene", estimate.total)) from None
-
-
-def max_threads() -> int:
-    """The most render threads Numba can run in this process."""
-    import numba
-
-    return numba.config.NUMBA_NUM_THREADS
-
-
-def option_problem(kernel: str, integrator: Optional[str], threads: Optional[int]) -> Optional[str]:
-    """The first of a render's options whose value cannot be used: "kernel" (not one of
-    KERNEL_CHOICES), "integrator" (not one of flat.INTEGRATORS) or "threads" (more than
-    `max_threads`); None when every one can. `rt render` and rt.render check these rules here
-    and word the error each their own way."""
-    from renderer.flat import INTEGRATORS
-    from renderer.variants import KERNEL_CHOICES
-
-    if kernel not in KERNEL_CHOICES:
-        return "kernel"
-    if integrator is not None and integrator not in INTEGRATORS:
-        return "integrator"
-    if threads is not None and threads > max_threads():
-        return "threads"
-    return None
-
-
-def sample_target(spp: Optional[int], frame: Frame, budgeted: bool) -> int:
-    """The samples per pixel to render: `spp`, else the scene's; with a time or noise budget
-    (`budgeted`) the count is only a cap, BUDGET_SAMPLE_CAP unless `spp` says."""
-    if spp is not None:
-        return spp
-    return BUDGET_SAMPLE_CAP if budgeted else frame.samples
-
-
-def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, target: int, kernel: str = "auto",
-                 threads: Optional[int] = None, connection=None, package=None, progress=None, **options):
-    """Render a flattened scene: on the cluster of `connection` (rt.cluster.Connection, with the
-    scene's `package`) if one is given, else in this process. The one way `rt render` and
-    rt.render render; a RenderResult.
-
-    `features`: the kernel paths the scene needs (variants.features_of); `kernel`: one of
-    KERNEL_CHOICES; `target`: samples per pixel (`sample_target`); `threads` (checked by
-    `option_problem`): Numba's threads for this render only. A `Progress` given as `progress`
-    draws its final figures and is closed. `options` are those render_flat and
-    render_on_cluster share: max_depth, seed, film, should_stop, time_budget, noise_target, notify.
-    """
-    import numba
-
-    from renderer.render import render_flat
-    from renderer.variants import first_kernel
-
-    before = numba.get_num_threads()
-    try:
-        if threads is not None:
-            numba.set_num_threads(threads)
-        if connection is not None:
-            from .cluster import render_on_cluster
-
-            result = render_on_cluster(connection.client, package, flat, frame, features=first_kernel(features, kernel),
-                                       samples=target, progress=progress, warm_kernel=connection.local, **options)
-        else:
-            result = render_flat(flat, frame, samples=target, progress=progress, needed=features, kernel=kernel, **options)
-        if isinstance(progress, Progress):
-            progress.finish(result.stats)
-        return result
-    finally:
-        numba.set_num_threads(before)
-        if isinstance(progress, Progress):
-            progress.close()
-
-
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -325,12 +210,13 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
     if problem == "threads":
         raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
-    for path, allowed in ((opts.out, (".png",)), (opts.hdr, (".exr", ".pfm")), (opts.noise_map, (".png",)), (opts.save_state, (".npz",))):
+    for path, role in ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"), (opts.save_state, "state")):
+        allowed = suffixes_of(role)
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
-    if opts.hdr is not None and opts.hdr.suffix.lower() == ".exr":
+    if opts.hdr is not None and needs_exr(opts.hdr):
         from scenefmt.hdr_files import EXR_MISSING, exr_available
 
         if not exr_available():
@@ -344,6 +230,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(problem)
 
     from renderer.flat import Frame
+    from renderer.session import flatten_loaded
     from renderer.variants import features_of
     from scenefmt.diagnostics import SceneError
     from scenefmt.validation import load_source
@@ -357,7 +244,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
             problem = input_problem(opts, reads)
             if problem:
                 raise fail(problem)
-            graph, flat = flatten(loaded, opts.width, opts.integrator)
+            graph, flat = flatten_loaded(loaded, opts.width, opts.integrator)
     except SceneError as exc:
         for diag in exc.diagnostics:
             say(str(diag), err=True)
@@ -392,77 +279,6 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         package = package_scene(None if opts.from_stdin else str(opts.scene), reads, loaded, flat, opts.overrides, opts.syntax,
                                 opts.width, opts.integrator)
     return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package, loaded)
-
-
-class Progress:
-    """A one-line progress bar on standard error (a line per 10% when it is not a terminal)."""
-
-    def __init__(self, total: int, seconds: Optional[float] = None, noise: Optional[float] = None):
-        self.total = total
-        self.seconds = seconds
-        self.noise = noise
-        self.tty = sys.stderr.isatty()
-        self.last_decile = -1
-        self.shown = (-1, "")  # the samples and noise figure of the last line drawn
-
-    def __call__(self, stats) -> None:
-        line, frac = self.line(stats)
-        if self.tty:
-            self.show(line, stats)
-        elif int(frac * 10) > self.last_decile:
-            self.last_decile = int(frac * 10)
-            self.show(line, stats)
-
-    @property
-    def shown_any(self) -> bool:
-        """Whether a pass has been shown, and so finished: the first is always drawn."""
-        return self.shown[0] >= 0
-
-    def finish(self, stats) -> None:
-        """Draw the render's final figures: during the render the noise is estimated at most once a
-        second, so the last update can show an older estimate than the summary's, or none."""
-        if self.tty or (stats.samples, self.noise_text(stats)) != self.shown:
-            self.show(self.line(stats)[0], stats)
-
-    def show(self, line: str, stats) -> None:
-        # Recorded before the line is written: a signal sent on seeing the line may run its handler
-        # between the write and the next statement, and must find a pass shown (`shown_any`).
-        self.shown = (stats.samples, self.noise_text(stats))
-        sys.stderr.write("\r" + line if self.tty else line + "\n")
-        sys.stderr.flush()
-
-    @staticmethod
-    def noise_text(stats) -> str:
-        return f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
-
-    def line(self, stats) -> tuple[str, float]:
-        """The progress line for `stats`, and the share of the render done."""
-        done = stats.samples
-        frac = done / self.total if self.total else 1.0
-        # Under a budget, progress is the share of the budget spent: time, or noise (which falls
-        # as one over the square root of the samples).
-        if self.seconds:
-            frac = max(frac, stats.seconds / self.seconds)
-        if self.noise and 0 < stats.noise < float("inf"):
-            frac = max(frac, (self.noise / stats.noise) ** 2)
-        frac = min(frac, 1.0)
-        eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
-        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        noise = self.noise_text(stats)
-        line = (
-            f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
-            f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
-        )
-        return line, frac
-
-    def notify(self, message: str) -> None:
-        """A line of its own, between progress updates."""
-        sys.stderr.write(("\r\x1b[K" if self.tty else "") + message + "\n")
-        sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.tty:
-            sys.stderr.write("\n")
 
 
 def run(opts: RenderOptions, started: float) -> None:
@@ -660,14 +476,14 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
             raise Stop(2)
     folder = opts.output
     # A missing folder is made below; an existing file, or a name that reads as an image, is a mistake.
-    if folder is not None and not folder.is_dir() and (folder.exists() or folder.suffix.lower() in (".png", ".exr", ".pfm")):
+    if folder is not None and not folder.is_dir() and (folder.exists() or folder.suffix.lower() in suffixes_of("image") + suffixes_of("hdr")):
         raise fail(f"error: -o {folder}: with several scenes, -o names the folder to write their images in, and this is not one")
     hdr_suffix = None
     if opts.hdr is not None:
         hdr_suffix = "." + str(opts.hdr).lower().lstrip(".")
-        if hdr_suffix not in (".exr", ".pfm"):
+        if hdr_suffix not in suffixes_of("hdr"):
             raise fail(f"error: --hdr {opts.hdr}: with several scenes, give the format only: --hdr exr or --hdr pfm")
-        if hdr_suffix == ".exr":  # once for the batch, rather than once for each scene
+        if BY_SUFFIX[hdr_suffix].needs_exr:  # once for the batch, rather than once for each scene
             from scenefmt.hdr_files import EXR_MISSING, exr_available
 
             if not exr_available():
@@ -680,7 +496,7 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     seen: dict[str, Path] = {}
     for scene in scenes:
         stem = "stdin" if str(scene) == "-" else Path(scene).stem
-        png = (folder or Path(".")) / f"{stem}.png"
+        png = (folder or Path(".")) / f"{stem}{PNG}"
         key = os.path.abspath(png)
         if key in seen:
             raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")

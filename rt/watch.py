@@ -143,10 +143,9 @@ def preview_scene(loaded, flat, width: int, integrator: Optional[str] = None):
     import numpy as np
 
     from renderer.compile import camera_values
+    from renderer.session import scene_graph_with
 
-    from .render_job import render_graph
-
-    graph = render_graph(loaded, width, integrator)
+    graph = scene_graph_with(loaded, width, integrator)
     return graph, flat._replace(camera=np.array(camera_values(graph), np.float64))
 
 
@@ -244,12 +243,11 @@ class Previewer:
         from renderer.film import Film
         from renderer.flat import Frame
         from renderer.render import render_flat
+        from renderer.session import flatten_loaded
         from renderer.variants import features_of, first_kernel, is_compiled
         from scenefmt.diagnostics import SceneError
         from scenefmt.files import recording_reads
         from scenefmt.validation import load
-
-        from .render_job import flatten
 
         started = time.perf_counter()
         self.version_first = True
@@ -260,7 +258,7 @@ class Previewer:
         with recording_reads() as reads:
             try:
                 loaded = load(self.opts.scene, self.opts.overrides, allow_paths=self.opts.allow_paths)
-                graph, flat = flatten(loaded, self.opts.width, self.opts.integrator)
+                graph, flat = flatten_loaded(loaded, self.opts.width, self.opts.integrator)
             except SceneError as exc:
                 errors = [describe(d) for d in exc.diagnostics]
             except ValueError as exc:  # an image that does not decode

@@ -55,7 +55,7 @@ def prepared(scene=CORNELL, width=WIDTH):
     """(package, flat, frame, features) of a scene, as `rt render --cluster` prepares them."""
     from renderer.flat import Frame
     from renderer.variants import GENERAL
-    from rt.render_job import flatten
+    from renderer.session import flatten_loaded as flatten
     from scenefmt.files import recording_reads
 
     with recording_reads() as reads:

@@ -220,12 +220,12 @@ BALL_LIB = "materials:\n  ground: {type: lambertian, albedo: [0.5, 0.5, 0.5]}\n 
 @pytest.fixture
 def counted(monkeypatch):
     """rt.api with its loads and flattenings counted: {"load": n, "flatten": n}."""
+    import renderer.session
     import rt.api
-    import rt.render_job
 
     rt.api.forget_prepared_scenes()
     calls = {"load": 0, "flatten": 0}
-    load, flatten = rt.api.load, rt.render_job.flatten
+    load, flatten = rt.api.load, renderer.session.flatten_loaded
 
     def counting_load(*args, **kw):
         calls["load"] += 1
@@ -236,7 +236,7 @@ def counted(monkeypatch):
         return flatten(*args, **kw)
 
     monkeypatch.setattr(rt.api, "load", counting_load)
-    monkeypatch.setattr(rt.render_job, "flatten", counting_flatten)
+    monkeypatch.setattr(renderer.session, "flatten_loaded", counting_flatten)
     yield calls
     rt.api.forget_prepared_scenes()
 

@@ -152,22 +152,24 @@ def test_a_stop_between_bands_takes_the_unfinished_pass_back(small):
 def test_compiling_is_not_rendering_time(small, monkeypatch):
     """A kernel compiled during the render (here: a load made to take a second, as a compile
     does) is counted apart from the rendering time, which a time budget spends."""
+    import renderer.local_passes as executor_module
     import renderer.render as render_module
+    import renderer.session as session_module
 
     flat, frame, needed = small
     from renderer.variants import GENERAL
 
-    real = render_module.kernels_for
+    real = executor_module.kernels_for
 
     def slow_kernels_for(features):  # the general kernel, whatever is asked: no real compile
         time.sleep(1.0)
         return real(GENERAL)
 
-    monkeypatch.setattr(render_module, "kernels_for", slow_kernels_for)
-    monkeypatch.setattr(render_module, "first_kernel", lambda needed, choice: GENERAL)
-    monkeypatch.setattr(render_module, "is_compiled", lambda features: False)
-    monkeypatch.setattr(render_module, "mark_compiled", lambda features: None)  # nothing was compiled
-    monkeypatch.setattr(render_module, "worth_specialising", lambda seconds: True)
+    monkeypatch.setattr(executor_module, "kernels_for", slow_kernels_for)
+    monkeypatch.setattr(session_module, "first_kernel", lambda needed, choice: GENERAL)
+    monkeypatch.setattr(executor_module, "is_compiled", lambda features: False)
+    monkeypatch.setattr(executor_module, "mark_compiled", lambda features: None)  # nothing was compiled
+    monkeypatch.setattr(session_module, "worth_specialising", lambda seconds: True)
     result = render_module.render_flat(flat, frame, samples=3, needed=needed, kernel="auto")
     assert result.stats.features == needed  # switched after the first pass: a second "compile"
     assert result.stats.compile_seconds >= 2.0

@@ -225,7 +225,7 @@ def test_the_preview_reuses_the_full_scene_with_its_camera_at_the_preview_width(
     import numpy as np
 
     import rt
-    from rt.render_job import flatten
+    from renderer.session import flatten_loaded as flatten
     from rt.watch import preview_scene
 
     scenes = Path(__file__).resolve().parents[1] / "scenes"

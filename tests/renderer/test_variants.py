@@ -192,11 +192,11 @@ def test_auto_starts_with_the_general_kernel_until_the_specialised_one_is_compil
 
 def test_a_long_render_switches_to_the_specialised_kernel_and_keeps_the_image(monkeypatch):
     """The switch is mid-render, after the first pass: the image is the general kernel's, bit for bit."""
-    import renderer.render as render_module
+    import renderer.session as session_module
 
     graph = graph_of("sky")
-    monkeypatch.setattr(render_module, "first_kernel", lambda needed, choice: GENERAL)
-    monkeypatch.setattr(render_module, "worth_specialising", lambda seconds_left: True)
+    monkeypatch.setattr(session_module, "first_kernel", lambda needed, choice: GENERAL)
+    monkeypatch.setattr(session_module, "worth_specialising", lambda seconds_left: True)
     lines = []
     switched = render(graph, samples=6, seed=3, notify=lines.append)
     general = render(graph, samples=6, seed=3, features=GENERAL)

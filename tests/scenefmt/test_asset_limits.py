@@ -454,7 +454,7 @@ def test_a_mesh_read_that_runs_out_of_memory_is_an_error_at_its_file(tmp_path, m
 
 def test_flattening_that_runs_out_of_memory_is_a_value_error_with_the_estimate(tmp_path, monkeypatch):
     import renderer.compile
-    from rt.render_job import flatten
+    from renderer.session import flatten_loaded as flatten
 
     def short_of_memory(graph):
         exec(OUT_OF_MEMORY)

@@ -1,0 +1,225 @@
+"""One render session: a loaded scene -> flat tables -> kernel choice -> an executor's steps -> film -> result.
+
+Every front end renders through here: `rt render`, `rt.render` and `rt watch` in this process
+(`local_passes.LocalPasses`), and `--cluster` on Dask workers (`rt.cluster.ClusterRounds`); the
+cluster's workers build their scene with the same `flatten_loaded`. The front ends load the
+scene their own way (a file, standard input, a dict, a kept scene) and present the result their
+own way; the steps between, and the progressive loop, are written once:
+
+- `flatten_loaded`: the loaded scene with a width and an integrator applied, as flat tables;
+- `choose_kernel`: the kernel to start with and whether `--kernel auto` may switch later;
+- `render_progressively`: ask the executor for steps until the samples are done, the time
+  budget is spent, the noise target is reached or a stop is asked for; keep the statistics, show
+  progress, switch to the specialised kernel when the forecast says it pays.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+from .executor import ExecutorFailed, KernelTime, Plan
+from .film import Film, relative_noise
+from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
+
+# Below this many samples per pixel the noise estimate is not trusted to stop a render on.
+MIN_SAMPLES_FOR_NOISE = 8
+# The progress display refreshes its noise estimate (a pass over the film) at most this often.
+NOISE_DISPLAY_SECONDS = 1.0
+
+
+@dataclass
+class RenderStats:
+    samples: int = 0
+    target_samples: int = 0
+    seconds: float = 0.0
+    rays: int = 0
+    bad_samples: int = 0  # samples that were not finite (a bug): dropped and reported
+    interrupted: bool = False
+    stop_reason: str = "samples"  # samples | time | noise | interrupted
+    noise: float = float("inf")  # relative RMS noise estimate at the end (see film.estimate_noise)
+    kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
+    compile_seconds: float = 0.0  # the part of kernel_seconds spent compiling: never counted in `seconds`
+    first_pass_seconds: float = 0.0  # rendering seconds until the first step of samples was in the film
+    features: Optional[KernelFeatures] = None  # the kernel's feature set
+
+    @property
+    def rays_per_second(self) -> float:
+        return self.rays / self.seconds if self.seconds > 0 else 0.0
+
+
+@dataclass
+class RenderResult:
+    film: Film
+    stats: RenderStats = field(default_factory=RenderStats)
+
+
+def scene_graph_with(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """The scene graph of a loaded scene (scenefmt.validation.LoadedScene) with a width and an
+    integrator applied (None keeps the file's)."""
+    from .compile import with_integrator, with_width
+
+    graph = loaded.graph if width is None else with_width(loaded.graph, width)
+    if integrator is not None:
+        graph = with_integrator(graph, integrator)
+    return graph
+
+
+def flatten_loaded(loaded, width: Optional[int] = None, integrator: Optional[str] = None):
+    """(graph, flat tables) of a loaded scene with a width and an integrator applied; raises
+    SceneError (the film too big for memory) or ValueError (an image that does not decode, or no
+    memory left to flatten it). The one way from a loaded scene to the kernels' tables, for every
+    front end and for the cluster's workers."""
+    from scenefmt.bounds import check_memory
+
+    from .compile import compile_scene
+
+    graph = scene_graph_with(loaded, width, integrator)
+    estimate = check_memory(graph, loaded.document)  # the width changes the film's size
+    try:
+        return graph, compile_scene(graph)
+    except MemoryError as exc:  # the estimate allowed it, but the memory is not there (others use it)
+        from scenefmt.assets import memory_message
+
+        raise ValueError(memory_message(exc, "flatten the scene", estimate.total)) from None
+
+
+def choose_kernel(needed: KernelFeatures, kernel: str = "auto",
+                  features: Optional[KernelFeatures] = None) -> tuple[KernelFeatures, bool]:
+    """The kernel to start with, and whether the render may switch to the one specialised to
+    `needed` later. `features` names a kernel outright (it must cover `needed`); else `kernel`
+    chooses ("auto", "general" or "specialised", see `variants.first_kernel`), and only "auto"
+    switches."""
+    if features is not None:
+        if not features.covers(needed):
+            raise ValueError(f"the kernel {features.tag!r} lacks paths the scene reaches: {needed.tag!r}")
+        return features, False
+    chosen = first_kernel(needed, kernel)
+    return chosen, kernel == "auto" and chosen != needed
+
+
+def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
+                    noise_target: Optional[float], last_noise: float) -> tuple[bool, float]:
+    """After samples were added to `film`: refresh the noise estimate where it is needed, show
+    progress, and say whether the noise target is reached; also the time of the last estimate.
+
+    The estimate costs a pass over the film: it is made for a noise target, else for the
+    progress display at most once a second. It needs a few samples before it is trusted to stop on.
+    """
+    now = time.perf_counter()
+    if noise_target is not None or (progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS):
+        stats.noise = relative_noise(film)
+        last_noise = now
+    if progress is not None:
+        progress(stats)
+    reached = noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target
+    return reached, last_noise
+
+
+class RenderClock:
+    """Seconds of rendering since the start, less the time spent switching kernels."""
+
+    def __init__(self):
+        self.start = time.perf_counter()
+        self.paused = 0.0
+
+    def __call__(self) -> float:
+        return time.perf_counter() - self.start - self.paused
+
+
+def _add_kernel_time(stats: RenderStats, spent: KernelTime) -> None:
+    stats.kernel_seconds += spent.seconds
+    stats.compile_seconds += spent.compiling
+
+
+def render_progressively(
+    executor,
+    film: Film,
+    *,
+    target: int,
+    needed: KernelFeatures = GENERAL,
+    kernel: str = "auto",
+    features: Optional[KernelFeatures] = None,
+    progress: Optional[Callable[[RenderStats], None]] = None,
+    should_stop: Optional[Callable[[], bool]] = None,
+    time_budget: Optional[float] = None,
+    noise_target: Optional[float] = None,
+    notify: Optional[Callable[[str], None]] = None,
+) -> RenderResult:
+    """Render into `film` (empty, or an earlier render's with the same seed) with `executor` until
+    it holds `target` samples per pixel: the progressive loop of every front end.
+
+    `should_stop` is polled before each step (and by the executor within one) and ends the render
+    early with every finished step kept. With `time_budget` (seconds of rendering) or
+    `noise_target` (relative RMS noise, see `film.estimate_noise`) the render also stops when the
+    time is spent or the estimated noise falls below the target; `target` is then the cap.
+    `stats.stop_reason` says which ended it: samples, time, noise or interrupted.
+
+    The kernel: `needed` is the paths the scene reaches, `kernel` and `features` choose as in
+    `choose_kernel`. With "auto", an executor that can switch kernels switches to the specialised
+    one when the rest of the render, as forecast from the speed and noise measured so far
+    (`variants.seconds_left`), is long enough to repay the compile (`variants.worth_specialising`).
+    `notify` receives a line before a compile or a switch. Time spent getting kernels ready is never
+    counted as rendering time (`stats.seconds`, the time budget).
+    """
+    chosen, may_switch = choose_kernel(needed, kernel, features)
+    may_switch = may_switch and executor.can_switch_kernel
+    stats = RenderStats(target_samples=target, features=chosen, samples=film.samples)
+    start_samples = film.samples
+    try:
+        _add_kernel_time(stats, executor.start(film, chosen, notify))
+        clock = RenderClock()
+        time_left = (lambda: time_budget - clock()) if time_budget is not None else None
+        last_noise = clock.start
+        steps = 0
+        try:
+            while film.samples < target:
+                if should_stop is not None and should_stop():
+                    stats.interrupted = True
+                    stats.stop_reason = "interrupted"
+                    break
+                if (time_budget is not None and clock() >= time_budget
+                        and (executor.stops_on_time_before_first_step or film.samples > start_samples)):
+                    stats.stop_reason = "time"
+                    break
+                step = executor.advance(Plan(target, start_samples, steps, stats.seconds, time_left), should_stop)
+                if step is None:
+                    stats.interrupted = True
+                    stats.stop_reason = "interrupted"
+                    break
+                if step.samples == 0:
+                    continue
+                steps += 1
+                stats.samples = film.samples
+                stats.rays += step.rays
+                stats.bad_samples += step.bad_samples
+                stats.seconds = clock()
+                if stats.first_pass_seconds == 0.0:
+                    stats.first_pass_seconds = stats.seconds
+                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+                if reached:
+                    stats.stop_reason = "noise"
+                    break
+                if may_switch:
+                    left = seconds_left(step.seconds / step.samples, film.samples, target, noise=stats.noise,
+                                        noise_target=noise_target, time_left=time_left() if time_left is not None else None)
+                    if left is not None and worth_specialising(left):
+                        may_switch = False
+                        if notify is not None:
+                            notify(f"switching to the kernel specialised to this scene ({needed.tag}): about {left:.0f} s of "
+                                   "rendering left")
+                        spent = executor.switch_kernel(needed, notify)
+                        _add_kernel_time(stats, spent)
+                        clock.paused += spent.seconds
+                        stats.features = needed
+        except ExecutorFailed as exc:
+            stats.seconds = clock()
+            stats.noise = relative_noise(film)
+            exc.partial = RenderResult(film, stats)
+            raise
+    finally:
+        executor.close()
+    stats.seconds = clock()
+    stats.noise = relative_noise(film)
+    return RenderResult(film, stats)

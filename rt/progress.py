@@ -1,0 +1,84 @@
+"""The progress bar of a render on standard error: `rt render`, and `rt.render(progress=True)`."""
+
+from __future__ import annotations
+
+import sys
+from typing import Optional
+
+
+def fmt_seconds(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.1f}s"
+    minutes, sec = divmod(int(round(seconds)), 60)
+    return f"{minutes}m{sec:02d}s" if minutes < 60 else f"{minutes // 60}h{minutes % 60:02d}m"
+
+
+class Progress:
+    """A one-line progress bar on standard error (a line per 10% when it is not a terminal)."""
+
+    def __init__(self, total: int, seconds: Optional[float] = None, noise: Optional[float] = None):
+        self.total = total
+        self.seconds = seconds
+        self.noise = noise
+        self.tty = sys.stderr.isatty()
+        self.last_decile = -1
+        self.shown = (-1, "")  # the samples and noise figure of the last line drawn
+
+    def __call__(self, stats) -> None:
+        line, frac = self.line(stats)
+        if self.tty:
+            self.show(line, stats)
+        elif int(frac * 10) > self.last_decile:
+            self.last_decile = int(frac * 10)
+            self.show(line, stats)
+
+    @property
+    def shown_any(self) -> bool:
+        """Whether a pass has been shown, and so finished: the first is always drawn."""
+        return self.shown[0] >= 0
+
+    def finish(self, stats) -> None:
+        """Draw the render's final figures: during the render the noise is estimated at most once a
+        second, so the last update can show an older estimate than the summary's, or none."""
+        if self.tty or (stats.samples, self.noise_text(stats)) != self.shown:
+            self.show(self.line(stats)[0], stats)
+
+    def show(self, line: str, stats) -> None:
+        # Recorded before the line is written: a signal sent on seeing the line may run its handler
+        # between the write and the next statement, and must find a pass shown (`shown_any`).
+        self.shown = (stats.samples, self.noise_text(stats))
+        sys.stderr.write("\r" + line if self.tty else line + "\n")
+        sys.stderr.flush()
+
+    @staticmethod
+    def noise_text(stats) -> str:
+        return f"  noise {100 * stats.noise:.2f}%" if stats.noise != float("inf") else ""
+
+    def line(self, stats) -> tuple[str, float]:
+        """The progress line for `stats`, and the share of the render done."""
+        done = stats.samples
+        frac = done / self.total if self.total else 1.0
+        # Under a budget, progress is the share of the budget spent: time, or noise (which falls
+        # as one over the square root of the samples).
+        if self.seconds:
+            frac = max(frac, stats.seconds / self.seconds)
+        if self.noise and 0 < stats.noise < float("inf"):
+            frac = max(frac, (self.noise / stats.noise) ** 2)
+        frac = min(frac, 1.0)
+        eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
+        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
+        noise = self.noise_text(stats)
+        line = (
+            f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
+            f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
+        )
+        return line, frac
+
+    def notify(self, message: str) -> None:
+        """A line of its own, between progress updates."""
+        sys.stderr.write(("\r\x1b[K" if self.tty else "") + message + "\n")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            sys.stderr.write("\n")

@@ -222,7 +222,7 @@ def test_the_four_wide_box_test_equals_the_one_box_test_bit_for_bit():
         assert np.array_equal(lanes.view(np.int64), one.view(np.int64))
         met = np.isfinite(one)
         # The cases are there: boxes met and missed, at an entry of exactly tmin and beyond it.
-        assert 0.05 < met.mean() < 0.95
+        assert met.sum() > 1000 and (~met).sum() > 1000
         assert (one == tmin[:, None, None]).any() and (one > tmin[:, None, None]).any()
 
 

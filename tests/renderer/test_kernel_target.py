@@ -177,6 +177,10 @@ def _edge_case_rays(rng, n):
     d[n // 8: n // 4, 1] = -0.0
     o[n // 4: n // 3] = 0.0
     o[n // 3: n // 2, 2] = -0.0
+    # On a box's plane and parallel to it: with a raw inverse, 0 * inf is NaN on that axis.
+    o[n // 2: 5 * n // 8, 1] = d[n // 2: 5 * n // 8, 1] = 0.0
+    o[5 * n // 8: 3 * n // 4, 2] = 0.0
+    d[5 * n // 8: 3 * n // 4, 2] = -0.0
     tmin = np.where(rng.random(n) < 0.5, 0.0, rng.uniform(0.0, 3.0, n))
     tmax = np.where(rng.random(n) < 0.3, math.inf, rng.uniform(0.0, 9.0, n))
     tmax[: n // 10] = tmin[: n // 10]  # an empty interval

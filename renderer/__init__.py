@@ -1,5 +1,5 @@
 """The path tracer: flattens a scene graph into arrays and renders it with Numba kernels.
 
-Importing the package imports nothing heavy. Every module with compiled code calls
-`renderer.jit_cache.configure` before defining it, which chooses Numba's disk-cache folder.
+Importing the package imports nothing heavy. Every compiled function is declared through
+`renderer.target`, which also chooses Numba's disk-cache folder for it (`renderer.jit_cache`).
 """

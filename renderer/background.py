@@ -4,10 +4,10 @@ A solid colour and the books' sky are read here; an image background (an environ
 a row here too, and its texels and sampling tables in `environment.py`, which fills the row in.
 """
 
-from numba import njit
 
 from scenefmt.scene import ImageBackground, SkyBackground
 
+from . import target
 from .columns import Column, Layout
 from .kernel_flags import SKY
 from .kernels.vec import unit
@@ -47,7 +47,7 @@ def flatten(graph) -> list[float]:
     return SOLID_BACKGROUND.row(kind=float(BACKGROUND_SOLID), color=tuple(map(float, bg.color)))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def background(bg, d):
     """The radiance of a ray that meets nothing, for a solid or sky background row. An image
     row (BACKGROUND_IMAGE) is environment.environment_radiance's, which also gives the density

@@ -14,12 +14,9 @@ which made whole renders 1.3 times as fast (docs/speed.md).
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
 
-from renderer import jit_cache  # absolute: see kernels/__init__.py
+from . import target
 from .config import BVH_BINS, BVH_MAX_LEAF
-
-jit_cache.configure()  # before the compiled functions below are defined
 
 # A flat box is padded to this thickness (relative to the scene's scale) so slab tests stay robust.
 PAD_RELATIVE = 1e-9
@@ -48,7 +45,7 @@ class Bvh(NamedTuple):
     order: np.ndarray  # (k,) int32: primitive index of each leaf slot
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _sah_split(lo, hi, cen, start, end, bins):
     """(axis, position, cost) of the best binned-SAH split of the boxes in rows start:end; axis
     -1 if none. `cen` holds the boxes' centres, 0.5 (lo + hi). The rows are the build's copies,
@@ -108,13 +105,13 @@ def _sah_split(lo, hi, cen, start, end, bins):
     return best_axis, best_pos, best_cost
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@target.device
 def _area(lo, hi):
     dx, dy, dz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
     return dx * dy + dy * dz + dz * dx
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _grow(lo, hi, cen, idx, start, end, depth, bins, max_leaf, traversal_cost, cutoff,
           node_lo, node_hi, node_a, node_n, node_axis, base, tasks):
     """Build the tree over slots start:end (at `depth`) into the node arrays from row `base`, in
@@ -196,7 +193,7 @@ def _grow(lo, hi, cen, idx, start, end, depth, bins, max_leaf, traversal_cost, c
     return count, n_tasks
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
+@target.parallel_kernel
 def _build(lo, hi, bins, max_leaf, traversal_cost, tasks_wanted):
     """The tree over boxes lo, hi, in preorder, and the permutation of the boxes in its leaves.
 
@@ -233,8 +230,9 @@ def _build(lo, hi, bins, max_leaf, traversal_cost, tasks_wanted):
     sub_n = np.zeros(cap, np.int32)
     sub_axis = np.zeros(cap, np.int32)
     made = np.zeros(n_tasks, np.int64)
-    for t in prange(n_tasks):
-        none = np.empty((1, 3), np.int64)
+    # The subtrees leave no tasks (their cutoff is 0), so they share one unused task row.
+    none = np.empty((1, 3), np.int64)
+    for t in target.prange(n_tasks):
         made[t] = _grow(lo, hi, cen, idx, tasks[t, 0], tasks[t, 1], tasks[t, 2], bins, max_leaf, traversal_cost, 0,
                         sub_lo, sub_hi, sub_a, sub_n, sub_axis, first[t], none)[0]
     # Stitch in preorder: a top node's row moves up by the rows of the subtrees before it.
@@ -335,7 +333,7 @@ class WideBvh(NamedTuple):
     child: np.ndarray  # (w, 8) int64
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _widen(lo, hi, a, n):
     m = lo.shape[0]
     box = np.full((max(1, m), 6 * WIDTH), np.nan)

@@ -7,13 +7,14 @@ interval.
 
 import math
 
-from numba import njit, uint64
 
 from scenefmt import affine
 
+from . import target
 from .columns import Column, Layout
 from .kernel_flags import DEFOCUS, MOTION
 from .kernels.rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, uniform
+from .target import uint64
 
 CAMERA = Layout("camera", "float64", [
     Column("origin", 3, "centre of the lens"),
@@ -52,7 +53,7 @@ def flatten(graph) -> list[float]:
                       open=float(graph.shutter.open), close=float(graph.shutter.close))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def lens_point(key):
     """A uniform point (x, y) of the unit disk for the path with `key`.
 
@@ -75,13 +76,13 @@ def lens_point(key):
     return r * math.cos(phi), r * math.sin(phi)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def camera_ray(cam, i, j, key):
     """Origin, direction and time of the camera ray through pixel (i, j) for the path with `key`."""
     ox = uniform(key, DIM_PIXEL_X) - 0.5
     oy = uniform(key, DIM_PIXEL_Y) - 0.5
     p0, du, dv = CAM_PIXEL00, CAM_DU, CAM_DV
-    target = (
+    aim = (
         cam[p0] + (i + ox) * cam[du] + (j + oy) * cam[dv],
         cam[p0 + 1] + (i + ox) * cam[du + 1] + (j + oy) * cam[dv + 1],
         cam[p0 + 2] + (i + ox) * cam[du + 2] + (j + oy) * cam[dv + 2],
@@ -100,4 +101,4 @@ def camera_ray(cam, i, j, key):
     if MOTION:
         into_shutter = uniform(key, DIM_TIME) * (cam[CAM_CLOSE] - cam[CAM_OPEN])
     time = cam[CAM_OPEN] + into_shutter
-    return origin, (target[0] - origin[0], target[1] - origin[1], target[2] - origin[2]), time
+    return origin, (aim[0] - origin[0], aim[1] - origin[1], aim[2] - origin[2]), time

@@ -6,8 +6,8 @@ lives in a folder named after a hash of every source with compiled code (and the
 version): any change gives a fresh cache, and an installation in a read-only place still
 caches. Set NUMBA_CACHE_DIR to choose the place yourself.
 
-Numba reads its cache folder when a compiled function is defined, so `configure` must run
-before any module with compiled code is imported: each such module calls it at its top.
+Numba reads its cache folder when a compiled function is declared: renderer/target.py, through
+which every kernel is declared, sets it to `folder_for` its flags at that moment.
 
 Within that folder Numba keeps each source file's code under the file's full path, and checks
 the file's modification time and size: the same sources at another path (an editable install
@@ -21,7 +21,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import tempfile
+import threading
 from pathlib import Path
+from typing import Optional
 
 import numba
 
@@ -76,15 +79,44 @@ def _writable(path: Path) -> bool:
         return False
 
 
-def configure() -> str:
-    """Choose Numba's cache folder for the renderer (once per process) and return it.
+@functools.lru_cache(maxsize=None)
+def base_folder() -> Optional[str]:
+    """The general kernel's cache folder (chosen once per process): NUMBA_CACHE_DIR if set, else
+    the folder named by `source_version` in the user's cache; None where that is read-only (then
+    Numba's own choice, beside the sources, is kept)."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return os.environ["NUMBA_CACHE_DIR"]
+    folder = _cache_dir()
+    return str(folder) if _writable(folder) else None
 
-    NUMBA_CACHE_DIR wins; where the home folder is read-only, Numba's own choice is kept.
-    """
+
+def folder_for(tag: str) -> Optional[str]:
+    """The cache folder of the kernel whose flags are named `tag` (variants.KernelFeatures.tag):
+    the base folder for the general kernel ('all'), a subfolder `variants/<tag>` for a
+    specialised one. Numba keys cached code by source file and signature, not by the flags a
+    module holds, so kernels of different flags must never share a folder: where the base folder
+    is Numba's own choice (beside the sources, shared by all), the specialised kernels go to a
+    private temporary folder instead."""
+    base = base_folder()
+    if tag == "all":
+        return base
+    if not base:
+        user = os.getuid() if hasattr(os, "getuid") else "user"
+        base = os.path.join(tempfile.gettempdir(), f"rt-numba-{user}")
+    return os.path.join(base, "variants", tag)
+
+
+# Held while a compiled function is declared (renderer/target.py sets Numba's cache folder for
+# that moment), by the general package's target module and by every specialised copy's.
+DECLARE_LOCK = threading.RLock()
+
+
+def configure() -> str:
+    """The general kernel's cache folder, also set as Numba's folder for the whole process
+    (once): TRANSITIONAL, for the modules that still declare with `numba.njit` rather than
+    through renderer/target.py, which sets the folder at each declaration instead."""
     global _configured
-    if not _configured and not os.environ.get("NUMBA_CACHE_DIR"):
-        folder = _cache_dir()
-        if _writable(folder):
-            numba.config.CACHE_DIR = str(folder)
+    if not _configured and not os.environ.get("NUMBA_CACHE_DIR") and base_folder():
+        numba.config.CACHE_DIR = base_folder()
     _configured = True
     return numba.config.CACHE_DIR

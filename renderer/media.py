@@ -10,14 +10,15 @@ scatters with an isotropic phase function, a material row (materials.phase_funct
 
 import math
 
-from numba import njit, uint64
 
+from . import target
 from .columns import Column, Layout
 from .kernels.rng import DIM_MEDIUM, mix64, uniform
 from .kernels.vec import dot, length, sub
 from .shapes import INF, MEDIUM, MOVING_SPHERE, PRIM_WIDTH, SPHERE
 from .shapes.planar import hit_planar
 from .shapes.spheres import SPHERE_RADIUS, sphere_center
+from .target import uint64
 
 MEDIUM_F = Layout("prims_f medium", "float64", [
     Column("neg_inv_density", 1, "-1 / density: the mean free path, negated"),
@@ -38,7 +39,7 @@ def flatten(density: float, first_boundary: int, boundaries: int, serial: int) -
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     """(enter, leave) distances of the ray's whole line through a convex boundary; enter >= leave if it misses."""
     enter, leave = INF, -INF
@@ -68,7 +69,7 @@ def medium_span(bnd_i, bnd_f, start, count, o, d, time):
     return enter, leave
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce, inst):
     """Distance at which the ray scatters in medium `prim`, or inf if it passes through;
     `inst` is the instance's serial number."""

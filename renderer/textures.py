@@ -11,8 +11,8 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
+from . import target
 from .columns import Column, Layout
 from .kernel_flags import CHECKER, IMAGE, NOISE
 
@@ -244,7 +244,7 @@ class TextureTables:
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(_nrt=False, cache=True, error_model="numpy")
+@target.device_noinline
 def perlin(perm, vec, q, x, y, z):
     """Gradient noise at (x, y, z) from table set q, in about [-1, 1]; continuous everywhere."""
     fx, fy, fz = math.floor(x), math.floor(y), math.floor(z)
@@ -268,7 +268,7 @@ def perlin(perm, vec, q, x, y, z):
     return accum
 
 
-@njit(_nrt=False, cache=True, error_model="numpy")
+@target.device_noinline
 def turbulence(perm, vec, q, x, y, z, octaves):
     accum = 0.0
     weight = 1.0
@@ -279,7 +279,7 @@ def turbulence(perm, vec, q, x, y, z, octaves):
     return abs(accum)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, t, u, v, p):
     """Colour of texture t at surface coordinates (u, v) and point p."""
     # Checkers choose a child texture: descend iteratively (kernels avoid recursion).

@@ -1,17 +1,18 @@
 """Kernels specialised to a scene's feature set: unused paths are not compiled at all.
 
 The renderer package as shipped is the general kernel: every flag in `kernel_flags.py` is on.
-For a scene that needs fewer paths, `kernels_for` imports the renderer package a second time
+For a scene that needs fewer paths, `kernel_set` imports the renderer package a second time
 under another name (`renderer_<flags>`), with `kernel_flags` replaced by a module holding that
-scene's flags. Numba compiles module globals in as constants and prunes the dead branches,
-so the copy holds no code for an effect the scene lacks. Every module with compiled code
-therefore imports its siblings relatively, so a copy's modules see the copy's flags.
+scene's flags (`kernel_flags.values`). Numba compiles module globals in as constants and prunes
+the dead branches, so the copy holds no code for an effect the scene lacks. Every module with
+compiled code therefore imports its siblings relatively, so a copy's modules see the copy's
+flags, and its own copy of the target module (target.py), which caches the copy's machine code
+in a folder of its flags' own: Numba keys cached code by source file and signature, not by
+globals, so copies sharing a folder would load each other's machine code.
 
-Each copy gets its own Numba disk-cache folder (a subfolder named after its flags): Numba
-keys cached code by source file and signature, not by globals, so copies sharing a folder
-would load each other's machine code. `kernels_for` (the progressive render's passes) and
-`tile_kernel_for` (the tiles a cluster's workers render, rt/chunks.py) import their modules
-from the same copy, under its folder.
+A `KernelSet` is what a render runs: `render_pass` (the progressive render's passes,
+kernels/integrator.py) and `render_tile` (the tiles a cluster's workers render, kernels/tile.py)
+of one feature set, each launched through the target.
 
 The flags come from the scene's effects (`scenefmt.effects.summarize`), the same analysis
 `rt validate` prints: an effect is off only where the scene cannot reach its path, so a
@@ -22,19 +23,17 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import os
 import sys
 import tempfile
 import threading
 import types
-from dataclasses import dataclass, fields
+from dataclasses import fields, make_dataclass
 from pathlib import Path
 from typing import Optional
 
-import numba
+from scenefmt.effect_flags import EFFECT_FLAGS, flags_tag
 
-from . import jit_cache
-from . import kernel_flags as _general_flags
+from . import jit_cache, kernel_flags, target
 
 _RENDERER_DIR = Path(__file__).resolve().parent
 _copies: dict[str, str] = {}  # tag -> package name of the renderer's copy with those flags
@@ -42,25 +41,7 @@ _loaded: dict[tuple[str, str], types.ModuleType] = {}  # (tag, module of kernels
 _lock = threading.Lock()
 
 
-@dataclass(frozen=True)
-class KernelFeatures:
-    """The optional kernel paths a scene reaches; field names match `kernel_flags.py` and the
-    keys of `scenefmt.effects.EFFECTS`."""
-
-    motion: bool = True
-    defocus: bool = True
-    media: bool = True
-    instances: bool = True
-    checker: bool = True
-    image: bool = True
-    noise: bool = True
-    emitters: bool = True
-    dielectrics: bool = True
-    sky: bool = True
-    lights: bool = True
-    environment: bool = True
-    meshes: bool = True
-
+class _FeatureMethods:
     @property
     def is_general(self) -> bool:
         return all(getattr(self, f.name) for f in fields(self))
@@ -68,19 +49,22 @@ class KernelFeatures:
     @property
     def tag(self) -> str:
         """A short stable name: 'all', 'none', or the flags that are on, joined by '+'."""
-        on = [f.name for f in fields(self) if getattr(self, f.name)]
-        if len(on) == len(fields(self)):
-            return "all"
-        return "+".join(on) if on else "none"
+        return flags_tag(f.name for f in fields(self) if getattr(self, f.name))
 
     def covers(self, other: "KernelFeatures") -> bool:
         """Whether every path `other` has is compiled in here too."""
         return all(getattr(self, f.name) or not getattr(other, f.name) for f in fields(self))
 
 
+# The optional kernel paths a scene reaches: a bool field (default on) per entry of the table of
+# effects (scenefmt/effect_flags.py), named by its key: motion, defocus, media, ...
+KernelFeatures = make_dataclass(
+    "KernelFeatures", [(flag.key, bool, True) for flag in EFFECT_FLAGS], bases=(_FeatureMethods,), frozen=True,
+    namespace={"__module__": __name__, "__doc__": "The optional kernel paths a scene reaches, by the keys of "
+               "scenefmt.effect_flags.EFFECT_FLAGS (every one on by default: the general kernel)."},
+)
+
 GENERAL = KernelFeatures()
-# The general kernel's flags must be exactly the shipped features module.
-assert tuple(f.name.upper() for f in fields(KernelFeatures)) == _general_flags.NAMES
 
 
 def features_of(graph) -> KernelFeatures:
@@ -143,12 +127,8 @@ def seconds_left(sample_seconds: float, samples: int, cap: int, *, noise: Option
 
 
 def _variant_cache_dir(tag: str) -> str:
-    base = jit_cache.configure()
-    if not base:
-        # Numba's default puts the cache beside the sources, shared by every copy: keep the
-        # copies apart in a private temporary folder instead.
-        base = os.path.join(tempfile.gettempdir(), f"rt-numba-{os.getuid() if hasattr(os, 'getuid') else 'user'}")
-    return os.path.join(base, "variants", tag)
+    """The cache folder of the specialised kernel named `tag` (jit_cache.folder_for)."""
+    return jit_cache.folder_for(tag)
 
 
 # What a ready marker is about: the progressive render's kernel (kernels/integrator.py) or
@@ -162,7 +142,7 @@ def _ready_marker(features: KernelFeatures, kind: str = "kernel") -> Path:
     same sources installed elsewhere (or again) compile anew and must not find this marker."""
     if kind not in KERNEL_KINDS:
         raise ValueError(f"unknown kernel kind {kind!r}: expected one of {', '.join(KERNEL_KINDS)}")
-    folder = jit_cache.configure() if features.is_general else _variant_cache_dir(features.tag)
+    folder = jit_cache.folder_for(features.tag)
     return Path(folder or tempfile.gettempdir()) / f"rt-{kind}-ready-{features.tag}-{jit_cache.installation_key()}"
 
 
@@ -184,7 +164,7 @@ def mark_compiled(features: KernelFeatures, kind: str = "kernel") -> None:
 
 def _kernel_module(features: KernelFeatures, name: str) -> types.ModuleType:
     """The module `kernels.<name>` of the renderer compiled for `features`: this package's own if
-    every flag is on, else that of the copy with the scene's flags, imported under its cache folder."""
+    every flag is on, else that of the copy with the scene's flags."""
     if features.is_general:
         return importlib.import_module(f".kernels.{name}", __package__)
     tag = features.tag
@@ -192,12 +172,11 @@ def _kernel_module(features: KernelFeatures, name: str) -> types.ModuleType:
         if (tag, name) in _loaded:
             return _loaded[tag, name]
         package = _copies.get(tag) or _copy_package(features)
-        saved = numba.config.CACHE_DIR
-        numba.config.CACHE_DIR = _variant_cache_dir(tag)
-        try:
+        copy_target = importlib.import_module(f"{package}.target")
+        # TRANSITIONAL, like the end of target.py: the copy's modules that still declare with
+        # numba.njit read the process's cache folder, so it is the copy's while they are imported.
+        with copy_target.declaring():
             module = importlib.import_module(f"{package}.kernels.{name}")
-        finally:
-            numba.config.CACHE_DIR = saved
         _loaded[tag, name] = module
         return module
 
@@ -214,19 +193,52 @@ def _copy_package(features: KernelFeatures) -> str:
     sys.modules[package] = module
     spec.loader.exec_module(module)
     flags = types.ModuleType(f"{package}.kernel_flags", "Flags of one specialised kernel (generated).")
-    for f in fields(KernelFeatures):
-        setattr(flags, f.name.upper(), getattr(features, f.name))
-    flags.NAMES = _general_flags.NAMES
+    vars(flags).update(kernel_flags.values(f.name for f in fields(KernelFeatures) if getattr(features, f.name)))
     sys.modules[flags.__name__] = flags
     _copies[tag] = package
     return package
 
 
-def kernels_for(features: KernelFeatures) -> types.ModuleType:
-    """The integrator module compiled for `features` (the general one if every flag is on)."""
-    return _kernel_module(features, "integrator")
+class KernelSet:
+    """The kernels of one feature set (the general kernel's, or a specialised copy's): what a
+    render launches. Each module is imported, and so compiled or loaded from the cache, when it
+    is first asked for."""
+
+    def __init__(self, features: KernelFeatures):
+        self.features = features
+
+    def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+                    row_rays, row_bad, band_start, band_stop):
+        """kernels.integrator.render_pass of this feature set: samples added to the whole film's
+        sums, for the rows band_start..band_stop of the pass's row order (it allocates the
+        threads' scratch and launches the parallel kernel `render_band`)."""
+        return _kernel_module(self.features, "integrator").render_pass(S, width, height, seed, sample_start, sample_count,
+                                                                       max_depth, integrator, total, total_sq, row_rays,
+                                                                       row_bad, band_start, band_stop)
+
+    def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+                    row_rays, row_bad):
+        """kernels.tile.render_tile of this feature set: samples added to one tile's sums."""
+        return target.launch(_kernel_module(self.features, "tile").render_tile, S, width, x0, y0, seed, sample_start,
+                             sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad)
+
+
+_sets: dict[str, KernelSet] = {}
+
+
+def kernel_set(features: KernelFeatures) -> KernelSet:
+    """The kernels compiled for `features` (the general ones if every flag is on)."""
+    found = _sets.get(features.tag)
+    if found is None:
+        found = _sets.setdefault(features.tag, KernelSet(features))
+    return found
+
+
+def kernels_for(features: KernelFeatures) -> KernelSet:
+    """The kernels compiled for `features`: `kernel_set` under its older name."""
+    return kernel_set(features)
 
 
 def tile_kernel_for(features: KernelFeatures):
-    """`kernels.tile.render_tile` compiled for `features`: the tile kernel of a cluster's workers."""
-    return _kernel_module(features, "tile").render_tile
+    """The tile kernel of a cluster's workers compiled for `features` (`KernelSet.render_tile`)."""
+    return kernel_set(features).render_tile

@@ -11,26 +11,13 @@ from typing import Iterator, Union
 
 from . import affine
 from .diagnostics import format_path
+from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
 from .scene import ImageBackground, SkyBackground
 
-# (key, name): the key is the kernel path's flag (renderer/kernel_flags.py), the name is what
-# users read.
-EFFECTS = (
-    ("motion", "motion blur"),
-    ("defocus", "defocus"),
-    ("media", "media"),
-    ("instances", "instances"),
-    ("checker", "checker textures"),
-    ("image", "image textures"),
-    ("noise", "noise textures"),
-    ("emitters", "emitters"),
-    ("dielectrics", "dielectrics"),
-    ("sky", "sky background"),
-    ("lights", "light sampling"),
-    ("environment", "environment map"),
-    ("meshes", "triangle meshes"),
-)
+# (key, name), from the one table of effects: the key is the kernel path's flag
+# (renderer/kernel_flags.py), the name is what users read.
+EFFECTS = tuple((flag.key, flag.name) for flag in EFFECT_FLAGS)
 EFFECT_NAMES = tuple(name for _, name in EFFECTS)
 
 

@@ -1,7 +1,8 @@
 """Choosing a row of a table by a cumulative distribution: lights by power, environment rows and texels by brightness."""
 
 import numpy as np
-from numba import njit
+
+from .. import target
 
 
 def pmf_and_cdf(weights: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarray]:
@@ -12,7 +13,7 @@ def pmf_and_cdf(weights: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarr
     return weights / total, cdf
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def search_cdf(table, column, first, count, u):
     """The first of rows first..first + count - 1 whose `column` (a cdf) exceeds u, by binary
     search: a row of zero probability (its cdf equal to the one before) is never chosen."""

@@ -2,12 +2,11 @@
 
 import math
 
-import numpy as np
-from numba import njit, prange
+from numba import njit
 
+from .. import target
 from ..background import BACKGROUND_IMAGE, BG_KIND, background
 from ..camera import camera_ray
-from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
 from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import EMITTERS, ENVIRONMENT, IMAGE, INSTANCES, LIGHTS, MEDIA
@@ -18,7 +17,7 @@ from ..shapes.dispatch import spawn_origin, surface
 from ..textures import texture_value
 from .rng import bounce_dim, light_dim, path_key, uniform
 from .shadow import transmittance
-from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
+from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene, traversal_scratch
 from .vec import dot, madd, neg, sub, unit, xform_normal, xform_point, xform_vector
 
 # Russian roulette starts after this many bounces: the first carry most of the light. Starting
@@ -174,7 +173,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     return r, g, b, rays
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row, col,
                       stack, tstack):
     """Add the samples sample_start.. of pixel (i, j) into total[row, col] and total_sq[row, col]
@@ -201,7 +200,7 @@ def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_dept
     return rays, bad
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def row_stride(height):
     """A step through the rows, coprime with their number, near the golden ratio of it.
 
@@ -217,19 +216,32 @@ def row_stride(height):
     return stride
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad,
                 band_start, band_stop):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums,
     with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS), for the rows at
     positions band_start..band_stop of the pass's row order (`row_stride`); 0..height is the
     whole image. A long pass is rendered as several such bands, so that a render can stop
-    between them; each pixel's sums are the same however the rows are banded."""
+    between them; each pixel's sums are the same however the rows are banded.
+
+    Allocates each render thread's traversal stacks and launches `render_band` on them."""
+    scratch = traversal_scratch(target.thread_count())
+    target.launch(render_band, S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+                  row_rays, row_bad, band_start, band_stop, scratch)
+
+
+@target.parallel_kernel
+def render_band(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad,
+                band_start, band_stop, scratch):
+    """`render_pass` on threads: thread k traverses with row k of `scratch`
+    (traverse.traversal_scratch), so the parallel loop allocates nothing."""
     stride = row_stride(height)
-    for m in prange(band_stop - band_start):
+    stacks_t, stacks_i, deferred, tstacks = scratch
+    for m in target.prange(band_stop - band_start):
         j = ((band_start + m) * stride) % height
-        stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
-        tstack = np.empty((BVH_STACK, 2))
+        thread = target.thread_index()
+        stack = (stacks_t[thread], stacks_i[thread], deferred[thread])
+        tstack = tstacks[thread]
         rays = 0
         bad = 0
         for i in range(width):

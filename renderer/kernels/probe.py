@@ -3,19 +3,20 @@
 import math
 
 import numpy as np
-from numba import njit, prange
 
+from .. import target
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..shapes import MEDIUM, PRIM_KIND
 from ..shapes.dispatch import surface
-from .traverse import INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT, intersect_brute_force, intersect_scene
+from .traverse import (INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT, intersect_brute_force, intersect_scene,
+                       traversal_scratch)
 from .vec import unit, xform_normal, xform_point, xform_vector
 
-# Rays per task of `closest_hits`: each task allocates its own traversal stacks once.
+# Rays per task of `closest_hits`.
 CLOSEST_HITS_CHUNK = 4096
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def probe_rays(S, origins, dirs, time, tmin, brute):
     """For each ray: distance (inf on a miss), primitive row, instance, world point, unit outward normal and (u, v)."""
     n = origins.shape[0]
@@ -55,23 +56,30 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
     return t_out, prim_out, inst_out, p_out, n_out, uv_out
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
 def closest_hits(S, origins, dirs, time, tmin):
     """For each ray, in parallel: distance (inf on a miss), primitive row and instance (-1 on a miss).
 
     The same search as `probe_rays` without the surface query, so what Embree's intersect
     answers; benchmarks/embree.py times it. The rays are cut into chunks of
-    CLOSEST_HITS_CHUNK, each with its own stacks, handed out to the threads.
+    CLOSEST_HITS_CHUNK handed out to the threads, each thread with its own stacks.
     """
+    return target.launch(closest_hits_on_threads, S, origins, dirs, time, tmin, traversal_scratch(target.thread_count()))
+
+
+@target.parallel_kernel
+def closest_hits_on_threads(S, origins, dirs, time, tmin, scratch):
+    """`closest_hits`, thread k traversing with row k of `scratch` (traverse.traversal_scratch)."""
     n = origins.shape[0]
     t_out = np.full(n, np.inf)
     prim_out = np.full(n, -1, np.int64)
     inst_out = np.full(n, -1, np.int64)
     key = np.uint64(12345)
     n_chunks = (n + CLOSEST_HITS_CHUNK - 1) // CLOSEST_HITS_CHUNK
-    for c in prange(n_chunks):
-        stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
-        tstack = np.empty((BVH_STACK, 2))
+    stacks_t, stacks_i, deferred, tstacks = scratch
+    for c in target.prange(n_chunks):
+        thread = target.thread_index()
+        stack = (stacks_t[thread], stacks_i[thread], deferred[thread])
+        tstack = tstacks[thread]
         for k in range(c * CLOSEST_HITS_CHUNK, min(n, (c + 1) * CLOSEST_HITS_CHUNK)):
             o = (origins[k, 0], origins[k, 1], origins[k, 2])
             d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])

@@ -6,7 +6,9 @@ samples exactly. The mixer is SplitMix64's finaliser (Steele, Lea and Flood 2014
 """
 
 import numpy as np
-from numba import njit, uint64
+
+from .. import target
+from ..target import uint64
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -36,14 +38,14 @@ DIM_LIGHT = np.uint64(1) << np.uint64(60)
 DIMS_PER_LIGHT = 4
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def mix64(z):
     z = (z ^ (z >> uint64(30))) * _M1
     z = (z ^ (z >> uint64(27))) * _M2
     return z ^ (z >> uint64(31))
 
 
-@njit(_nrt=False, cache=True, error_model="numpy")
+@target.device_noinline
 def path_key(seed, pixel, sample):
     """The key of one path: a hash of the seed, the pixel index and the sample index."""
     k = mix64(uint64(seed) + _GOLDEN)
@@ -51,18 +53,18 @@ def path_key(seed, pixel, sample):
     return mix64(k ^ (uint64(sample) + _GOLDEN * uint64(3)))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def uniform(key, dim):
     """A number in [0, 1) for dimension `dim` of the path with `key`."""
     return float(mix64(uint64(key) + uint64(dim) * _GOLDEN) >> uint64(11)) * _INV53
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def bounce_dim(bounce, k):
     return DIM_BOUNCE + bounce * DIMS_PER_BOUNCE + k
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def light_dim(bounce, k):
     """Dimension k of bounce `bounce`'s light-sampling stream (unsigned all through: mixed with a
     signed integer Numba would round it to a float, and 2^60 + k to 2^60)."""

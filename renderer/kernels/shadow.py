@@ -10,8 +10,8 @@ pushed), and the walk ends at the first node where a surface is met.
 
 import math
 
-from numba import njit
 
+from .. import target
 from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
@@ -23,7 +23,7 @@ from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORME
 from .vec import length, xform_point, xform_vector
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def leaf_depth(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, first, count, o, d, inv, inv_a, shear, tmax, time):
     """Optical depth of the media among `count` primitives from row `first` along o + t d for t
     in (0, tmax), or inf when one of its surfaces lies there."""
@@ -45,7 +45,7 @@ def leaf_depth(prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, first, count, o, 
     return depth
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, root, o, d, tmax, time, stack):
     """Optical depth of the media of the wide tree at `root` along o + t d for t in (0, tmax), or
     inf when a surface lies there. `stack` is intersect_tree's (its node column is reused)."""
@@ -75,7 +75,7 @@ def tree_depth(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
     return depth
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def transmittance(S, o, d, tmax, time, stack, tstack):
     """The fraction of light carried from o + tmax d back to o: 0 if a surface lies between, else
     exp(-optical depth of every medium crossed)."""

@@ -11,13 +11,13 @@ tiles at once, and no Numba threading layer is started inside a worker.
 """
 
 import numpy as np
-from numba import njit
 
+from .. import target
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from .integrator import add_pixel_samples
 
 
-@njit(nogil=True, cache=True, error_model="numpy")
+@target.kernel
 def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the sums of the
     tile whose top left pixel is (x0, y0) in an image `width` pixels wide; the tile's size is

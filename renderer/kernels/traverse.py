@@ -10,14 +10,16 @@ tested after the surfaces of a tree.
 import math
 
 import numpy as np
-from numba import njit, uint64
 
+from .. import target
 from ..columns import Column, Layout
+from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import medium_hit
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
 from ..shapes.meshes import NO_SHEAR, hit_mesh_triangle, ray_shear
+from ..target import uint64
 from .simd import slab4
 from .vec import dot, xform_point, xform_vector
 
@@ -54,7 +56,15 @@ TLAS_NEXT, TLAS_COUNT, TLAS_AXIS = TLAS_I.offsets("next", "count", "axis")
 BIG = 1e300
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def traversal_scratch(threads: int):
+    """Traversal stacks for `threads` threads of a parallel kernel (row k is thread k's, see
+    target.thread_index): the closest-hit search's (entry distances, entries, media set aside;
+    see intersect_tree) and the shadow rays' top-level one (shadow.transmittance)."""
+    return (np.empty((threads, BVH_WIDE_STACK)), np.empty((threads, BVH_WIDE_STACK, 2), np.int64),
+            np.empty((threads, MEDIA_DEFERRED), np.int64), np.empty((threads, BVH_STACK, 2)))
+
+
+@target.device
 def inverse_direction(d):
     return (
         1.0 / d[0] if d[0] != 0.0 else math.copysign(BIG, d[0]),
@@ -63,7 +73,7 @@ def inverse_direction(d):
     )
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def ray_constants(d):
     """What a walk of a tree needs of a ray's direction, once per walk: its inverse (box slabs),
     1 / (d . d) (spheres) and its sheared frame (mesh triangles, when the kernel has them)."""
@@ -73,7 +83,7 @@ def ray_constants(d):
     return inverse_direction(d), 1.0 / dot(d, d), shear
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def slab(box, k, o, inv, tmin, tmax):
     """Entry distance of the ray into box k (lo 0:3, hi 3:6) if it meets [tmin, tmax], else inf."""
     t0 = (box[k, TLAS_LO] - o[0]) * inv[0]
@@ -91,7 +101,7 @@ def slab(box, k, o, inv, tmin, tmax):
     return max(near, tmin) if (near <= far) & (far >= tmin) & (near <= tmax) else INF
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
     """At interior `node`: the child to visit next (-1 if the ray meets neither) and the stack size.
 
@@ -115,7 +125,7 @@ def descend(box, info, node, o, inv, neg0, neg1, neg2, tmin, best_t, stack, sp):
     return -1, sp
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def pop(stack, sp, best_t):
     """The next pushed node the ray entered before the best hit so far (-1 if none), and the stack size."""
     while sp > 0:
@@ -125,14 +135,14 @@ def pop(stack, sp, best_t):
     return -1, sp
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def at(i):
     """Index i, known to be >= 0, as an unsigned number: Numba then leaves out the code that
     would count a negative index from the end (three instructions per access of the hot loop)."""
     return uint64(i)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def push_sorted(stack_t, stack_i, base, sp, t, code, count):
     """Push (t, code, count) onto the stack's entries base..sp-1, kept in order of falling t,
     and return the new size. A node's children are pushed this way, so the nearest is popped first."""
@@ -146,7 +156,7 @@ def push_sorted(stack_t, stack_i, base, sp, t, code, count):
     return sp + 1
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, root, o, d, tmin, tmax, time, key, bounce,
                    inst, stack):
     """Closest primitive of the wide tree at `root` hit in (tmin, tmax): (t, prim), prim -1 if none.
@@ -231,7 +241,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, vert
     return best_t, best_prim
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                     o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit in the scene: (t, prim, instance); prim -1 if the ray escapes."""
@@ -248,7 +258,7 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
     return t, prim, 0 if prim >= 0 else -1
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                         o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit through the top-level tree: each instance's tree in its own space."""
@@ -283,7 +293,7 @@ def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_
     return best_t, best_prim, best_inst
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
     """The same answer as `intersect_scene` by testing every primitive of every instance (for tests)."""
     best_t, best_prim, best_inst = tmax, -1, -1
@@ -307,7 +317,7 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
     return best_t, best_prim, best_inst
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def tree_prims(nodes_i, root):
     """The rows of every primitive in the leaves of the wide tree at `root`, in row order (a tree
     with surfaces and mesh triangles has two runs of rows, not one)."""

@@ -2,46 +2,47 @@
 
 import math
 
-from numba import njit
+
+from .. import target
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def madd(a, b, s):
     """a + b * s"""
     return (a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def length(a):
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def unit(a):
     n = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
     if n == 0.0:
@@ -49,23 +50,23 @@ def unit(a):
     return (a[0] / n, a[1] / n, a[2] / n)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def neg(a):
     return (-a[0], -a[1], -a[2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def max_abs(a):
     return max(abs(a[0]), abs(a[1]), abs(a[2]))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def row3(arr, i, k):
     """The 3-vector arr[i, k:k+3]."""
     return (arr[i, k], arr[i, k + 1], arr[i, k + 2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def xform_point(m, i, k, p):
     """Apply the affine map in m[i, k:k+12] (3x4 row-major) to a point."""
     return (
@@ -75,7 +76,7 @@ def xform_point(m, i, k, p):
     )
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def xform_vector(m, i, k, v):
     """Apply the linear part of the map in m[i, k:k+12] to a direction."""
     return (
@@ -85,7 +86,7 @@ def xform_vector(m, i, k, v):
     )
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def xform_normal(m, i, k, n):
     """Transform a normal by the transpose of the linear part in m[i, k:k+12] (pass object_from_world)."""
     return (

@@ -1,0 +1,53 @@
+"""The effects a scene may call for, each of which switches on one optional path of the kernels.
+
+Declared once, here: `scenefmt.effects` reports each effect by its name (`rt validate`, `--explain`)
+and says whether a scene calls for it; `renderer.kernel_flags` makes each key, upper-cased, the
+constant a kernel tests (`if MEDIA and kind == MEDIUM:`); `renderer.variants.KernelFeatures` has
+a field per key, the feature set a kernel is compiled for. Pure Python, importing nothing, so
+that `rt validate` never loads numpy or Numba.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class EffectFlag:
+    key: str  # KernelFeatures' field and scenefmt.effects' key; upper-cased, the kernels' constant
+    name: str  # what users read
+    path: str  # what the kernels compile in when it is on
+
+    @property
+    def constant(self) -> str:
+        """The name of the kernels' constant: renderer.kernel_flags.MEDIA for 'media'."""
+        return self.key.upper()
+
+
+EFFECT_FLAGS = (
+    EffectFlag("motion", "motion blur", "time sampling and moving sphere centres"),
+    EffectFlag("defocus", "defocus", "sampling the lens disk"),
+    EffectFlag("media", "media", "constant-density media in the trees and scattering inside them"),
+    EffectFlag("instances", "instances", "the top-level tree and per-instance transforms"),
+    EffectFlag("checker", "checker textures", "checker textures"),
+    EffectFlag("image", "image textures", "image textures"),
+    EffectFlag("noise", "noise textures", "Perlin noise textures"),
+    EffectFlag("emitters", "emitters", "diffuse lights"),
+    EffectFlag("dielectrics", "dielectrics", "refraction"),
+    EffectFlag("sky", "sky background", "the sky-gradient background"),
+    EffectFlag("lights", "light sampling",
+               "shadow rays to points on emitters, weighted with the path's own hits"),
+    EffectFlag("environment", "environment map",
+               "an image background: its lookup, and with `integrator: mis` its sampling as a light"),
+    EffectFlag("meshes", "triangle meshes", "the ray's sheared frame and the watertight triangle test"),
+)
+EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
+
+
+def flags_tag(on) -> str:
+    """A short stable name of a set of flags that are on (keys): 'all', 'none', or those that are
+    on, in the table's order, joined by '+'. It names a specialised kernel and its cache folder."""
+    on = set(on)
+    if on >= set(EFFECT_KEYS):
+        return "all"
+    return "+".join(key for key in EFFECT_KEYS if key in on) or "none"

@@ -1,13 +1,25 @@
-"""Materials: their table, their flattening, and how each scatters a ray.
+"""Materials: their table, their flattening, and what each answers the path tracer.
 
-Lambertian, metal, dielectric and isotropic scatter; diffuse lights only emit (the path
-tracer reads their texture as emission). Adding a material means a model in
-`scenefmt/materials.py`, a type code, its parameters in `MATERIAL_F`, a case in `flatten`
-and a case in `scatter`.
+Every material answers the same questions, in the spirit of pbrt's BxDF interface, and the
+integrator (`kernels/integrator.trace`) asks only these and names no material:
+
+- `color_at`: its texture's colour at a hit (the albedo, or a light's radiance), evaluated once;
+- `emits` / `emitted`: whether it emits, and the radiance it sends back along the ray;
+- `sample_bsdf`: a scattered direction, the throughput weight f . cos / pdf, the density per
+  solid angle, and whether the lobe is a delta (no density: never light-sampled);
+- `eval_bsdf`: f . cos for a given pair of directions, as colour times number;
+- `pdf_bsdf`: the density `sample_bsdf` gives a direction, for multiple importance sampling;
+- `reads_uv`: whether the hit's (u, v) is needed at all.
+
+Each dispatches by kind to the material's own functions below. Lambertian and isotropic have a
+density, so light sampling and MIS serve them; metal and dielectric are deltas; a diffuse
+light emits and absorbs. Adding a material means a model in `scenefmt/materials.py`, a type
+code, its parameters in `MATERIAL_F`, a case in `flatten` and a case in each of the functions
+above that it answers differently from "black, delta".
 
 The direction of each material is a function of its random inputs (`lambertian_direction`,
-`metal_direction`, `fresnel_dielectric`), so tests can check each on chosen inputs; `scatter`
-draws those inputs and dispatches by kind.
+`metal_direction`, `dielectric_direction`), so tests can check each on chosen inputs;
+`sample_bsdf` draws those inputs.
 """
 
 import math
@@ -15,9 +27,10 @@ import math
 from numba import njit
 
 from .columns import Column, Layout
-from .kernel_flags import DIELECTRICS
+from .kernel_flags import DIELECTRICS, EMITTERS, IMAGE
 from .kernels.rng import uniform
 from .kernels.vec import add, dot, madd, scale, unit
+from .textures import texture_value
 
 # Type codes.
 LAMBERTIAN = 0
@@ -131,31 +144,135 @@ def fresnel_dielectric(cos_i, eta):
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
-def scatter(mat_i, mat_f, mat, d, n_front, front_face, key, dim):
-    """Direction of the ray scattered by material row `mat`, or (0, 0, 0) when it absorbs.
+def lambertian_value(n_front, wi):
+    """f . cos of the lambertian lobe per unit albedo for a unit direction wi: cos / pi above the
+    surface, 0 below. It is also the cosine sampler's density, so the two are one expression."""
+    return max(0.0, dot(wi, n_front)) / math.pi
 
-    `n_front` is the unit normal on the side the ray came from; `dim` is the first of the
-    random dimensions this bounce may use.
+
+# The isotropic phase function's value, and its sampler's density: uniform over the sphere.
+ISOTROPIC_DENSITY = 1.0 / (4.0 * math.pi)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def dielectric_direction(d, n_front, front_face, ior, u):
+    """Reflected or refracted direction of d at a smooth dielectric, reflected with the Fresnel
+    probability (u uniform in [0, 1) decides)."""
+    eta = 1.0 / ior if front_face else ior
+    ud = unit(d)
+    cos_i = min(max(-dot(ud, n_front), 0.0), 1.0)
+    reflectance, cos_t = fresnel_dielectric(cos_i, eta)
+    if u < reflectance:
+        return reflect(ud, n_front)
+    # Snell's law in vector form: unit length for a unit ud.
+    return madd(scale(ud, eta), n_front, eta * cos_i - cos_t)
+
+
+# --- the interface the integrator calls -------------------------------------------------------
+#
+# A material's value is split as colour x number: f(wo, wi) . cos = tint * value. The books'
+# materials all have the colour of their texture as the tint (the albedo) and a scalar lobe; a
+# material whose colour changes with direction returns its whole f . cos as the tint and 1.
+# The split keeps the integrator's products in the order they had before this interface, so
+# images are unchanged bit for bit.
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def reads_uv(mat_i, mat):
+    """Whether material row `mat` needs the hit's (u, v): only image textures read it, and on a
+    sphere it costs an arc cosine and an arc tangent."""
+    return IMAGE and mat_i[mat, MAT_READS_UV] != 0
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def color_at(S, mat, u, v, p):
+    """The colour of material row `mat` at a point of the flat scene S: its texture's value there,
+    a surface's albedo or a light's emitted radiance. Evaluated once per hit and handed to
+    `emitted`, `sample_bsdf` and `eval_bsdf`, as pbrt's materials evaluate their textures once
+    into a BSDF."""
+    return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, p)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def emits(mat_i, mat):
+    """Whether material row `mat` emits light (then `emitted` says how much). The path tracer
+    ends a path at an emitter: the books' lights absorb all that reaches them (their
+    `sample_bsdf` gives no direction), and asking was slower."""
+    return EMITTERS and mat_i[mat, MAT_KIND] == DIFFUSE_LIGHT
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def emitted(mat_i, mat_f, mat, color, front_face):
+    """Radiance that material row `mat` (one that `emits`) sends back along the ray that hit it.
+
+    The books' diffuse light emits its colour from both sides, so `front_face` is not read; a
+    one-sided emitter would return black for a ray that hit its back.
     """
+    return color
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
+    """Scatter the ray of direction d that hit material row `mat` (colour `color` there, see
+    `color_at`): (direction, weight, pdf, delta).
+
+    - direction: of the scattered ray, not necessarily of unit length (the books' lambertian
+      n + r is the next ray's direction as it is); (0, 0, 0) when the material absorbs the ray
+      (a light, which only emits).
+    - weight: the RGB factor of the path's throughput, f . cos / pdf, the albedo included. For
+      the books' materials it is exactly the colour: f . cos and the pdf cancel analytically
+      (cosine sampling for lambertian, the phase function for isotropic, the chosen lobe of a
+      mirror or a dielectric), and are not divided, so rounding never changes it.
+    - pdf: the density of the direction per solid angle (of its unit vector); 0 for a delta lobe.
+    - delta: the lobe has no density, so it is never light-sampled and a light it finds counts
+      in full. Mirrors and dielectrics are deltas. So is the books' fuzzed metal: it moves the
+      mirror direction within a ball of radius `fuzz`, whose density over directions has no
+      closed form; treating it as a delta keeps its images as they were.
+
+    `n_front` is the unit normal on the side the ray came from; `front_face` whether that is
+    the outward side; `dim` the first random dimension this bounce may use (up to dim + 8).
+    """
+    zero = (0.0, 0.0, 0.0)
     kind = mat_i[mat, MAT_KIND]
-    fuzz = mat_f[mat, MAT_FUZZ]
-    ior = mat_f[mat, MAT_IOR]
     if kind == LAMBERTIAN:
-        return lambertian_direction(n_front, random_unit_vector(key, dim))
+        wi = lambertian_direction(n_front, random_unit_vector(key, dim))
+        return wi, color, lambertian_value(n_front, unit(wi)), False
     if kind == METAL:
-        return metal_direction(d, n_front, fuzz, random_unit_vector(key, dim) if fuzz > 0.0 else (0.0, 0.0, 0.0))
+        fuzz = mat_f[mat, MAT_FUZZ]
+        r = random_unit_vector(key, dim) if fuzz > 0.0 else zero
+        return metal_direction(d, n_front, fuzz, r), color, 0.0, True
     if DIELECTRICS and kind == DIELECTRIC:
-        eta = 1.0 / ior if front_face else ior
-        ud = unit(d)
-        cos_i = min(max(-dot(ud, n_front), 0.0), 1.0)
-        reflectance, cos_t = fresnel_dielectric(cos_i, eta)
-        if uniform(key, dim + 8) < reflectance:
-            return reflect(ud, n_front)
-        # Snell's law in vector form: unit length for a unit ud.
-        return madd(scale(ud, eta), n_front, eta * cos_i - cos_t)
+        return dielectric_direction(d, n_front, front_face, mat_f[mat, MAT_IOR], uniform(key, dim + 8)), color, 0.0, True
     if kind == ISOTROPIC:
-        return random_unit_vector(key, dim)
-    return (0.0, 0.0, 0.0)
+        return random_unit_vector(key, dim), color, ISOTROPIC_DENSITY, False
+    return zero, zero, 0.0, True
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def eval_bsdf(mat_i, mat_f, mat, color, d, n_front, wi):
+    """f . cos of material row `mat` for light arriving from unit direction wi and leaving
+    against d, as (tint, value) with f . cos = tint * value (see above); for a medium's
+    material the phase function's value, which has no cosine. Non-negative, f reciprocal
+    (unchanged when the light's way is reversed); 0 for a delta lobe, which no given pair of
+    directions meets."""
+    kind = mat_i[mat, MAT_KIND]
+    if kind == LAMBERTIAN:
+        return color, lambertian_value(n_front, wi)
+    if kind == ISOTROPIC:
+        return color, ISOTROPIC_DENSITY
+    return color, 0.0
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def pdf_bsdf(mat_i, mat_f, mat, d, n_front, wi):
+    """The density per solid angle with which `sample_bsdf` gives unit direction wi for a ray
+    of direction d; 0 for a delta lobe."""
+    kind = mat_i[mat, MAT_KIND]
+    if kind == LAMBERTIAN:
+        return lambertian_value(n_front, wi)
+    if kind == ISOTROPIC:
+        return ISOTROPIC_DENSITY
+    return 0.0
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

@@ -5,9 +5,9 @@ from numba import njit
 from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
-from ..kernel_flags import MESHES
+from ..kernel_flags import MEDIA, MESHES
 from ..kernels.vec import dot, madd, max_abs
-from . import BOX, MESH_TRIANGLE, MOVING_SPHERE, SPHERE, boxes, planar, spheres
+from . import BOX, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, SPHERE, boxes, planar, spheres
 from .boxes import box_surface, hit_box
 from .meshes import mesh_surface
 from .planar import hit_planar, planar_surface
@@ -68,6 +68,34 @@ def surface(kind, S, i, o, d, t, time, want_uv):
         return box_surface(data, i, p, d)
     n, u, v = planar_surface(kind, data, i, p)
     return p, n, u, v
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def hit_material(prims_i, prim):
+    """The material row of primitive row `prim` (a medium's: its phase function)."""
+    return prims_i[prim, PRIM_MATERIAL]
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def is_volume(prims_i, prim):
+    """Whether a hit on primitive row `prim` is a scattering event inside a medium rather than a
+    point on a surface: it has no side, and the next ray starts at the point itself."""
+    return MEDIA and prims_i[prim, PRIM_KIND] == MEDIUM
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def interaction(S, prim, o, d, t, time, want_uv):
+    """Point, unit normal and (u, v) of the hit at distance t along o + t d on primitive row
+    `prim` of the flat scene S, in the space of o and d.
+
+    A surface's come from `surface`. A scattering event in a medium (`is_volume`) is the point
+    o + t d with (u, v) = (0, 0) and the stand-in normal (1, 0, 0), which no phase function
+    reads; it is computed where the ray is, so the caller passes the world's ray for it.
+    """
+    kind = S.prims_i[prim, PRIM_KIND]
+    if MEDIA and kind == MEDIUM:
+        return madd(o, d, t), (1.0, 0.0, 0.0), 0.0, 0.0
+    return surface(kind, S, prim, o, d, t, time, want_uv)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

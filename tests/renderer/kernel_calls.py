@@ -20,7 +20,8 @@ from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
 from renderer.kernels.rng import bounce_dim, light_dim, path_key, uniform
-from renderer.materials import MATERIAL_F, MATERIAL_I, random_unit_vector, scatter
+from renderer.materials import (MATERIAL_F, MATERIAL_I, emits, emitted, eval_bsdf, pdf_bsdf, random_unit_vector,
+                                sample_bsdf)
 from renderer.media import medium_hit
 from renderer.textures import texture_value
 
@@ -46,10 +47,60 @@ def scatter_many(kind, fuzz, ior, d, normal, front, seed, n, bounce):
 def _scatter_many(mat_i, mat_f, d, normal, front, seed, n, bounce):
     out = np.empty((n, 3))
     for k in range(n):
-        v = scatter(mat_i, mat_f, 0, (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
-                    path_key(seed, k, 0), bounce_dim(bounce, 0))
+        v = sample_bsdf(mat_i, mat_f, 0, (1.0, 1.0, 1.0), (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
+                        path_key(seed, k, 0), bounce_dim(bounce, 0))[0]
         out[k, 0], out[k, 1], out[k, 2] = v[0], v[1], v[2]
     return out
+
+
+def material_rows(kind, fuzz=0.0, ior=1.0):
+    """The (mat_i, mat_f) tables of one material of `kind` in row 0."""
+    return (np.array([MATERIAL_I.row(kind=kind)], np.int32), np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64))
+
+
+@njit(cache=True, error_model="numpy")
+def bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce):
+    """`sample_bsdf` of material row 0 for each incoming direction d[k] on a surface with unit
+    normal n_front[k] on the ray's side, paths 0..n-1: rows (direction 3, weight 3, pdf, delta,
+    and for the direction's unit vector: `pdf_bsdf`, then `eval_bsdf`'s tint 3 and value)."""
+    c = (color[0], color[1], color[2])
+    out = np.zeros((d.shape[0], 13))
+    for k in range(d.shape[0]):
+        dk = (d[k, 0], d[k, 1], d[k, 2])
+        nk = (n_front[k, 0], n_front[k, 1], n_front[k, 2])
+        wi, weight, pdf, delta = sample_bsdf(mat_i, mat_f, 0, c, dk, nk, front, path_key(seed, k, 0), bounce_dim(bounce, 0))
+        out[k, 0], out[k, 1], out[k, 2] = wi[0], wi[1], wi[2]
+        out[k, 3], out[k, 4], out[k, 5] = weight[0], weight[1], weight[2]
+        out[k, 6], out[k, 7] = pdf, 1.0 if delta else 0.0
+        if wi[0] != 0.0 or wi[1] != 0.0 or wi[2] != 0.0:
+            w = unit(wi)
+            out[k, 8] = pdf_bsdf(mat_i, mat_f, 0, dk, nk, w)
+            tint, value = eval_bsdf(mat_i, mat_f, 0, c, dk, nk, w)
+            out[k, 9], out[k, 10], out[k, 11], out[k, 12] = tint[0], tint[1], tint[2], value
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def bsdf_values(mat_i, mat_f, color, d, n_front, wi):
+    """`eval_bsdf` and `pdf_bsdf` of material row 0 for each (d[k], n_front[k], wi[k]): rows
+    (tint 3, value, pdf)."""
+    c = (color[0], color[1], color[2])
+    out = np.zeros((d.shape[0], 5))
+    for k in range(d.shape[0]):
+        dk = (d[k, 0], d[k, 1], d[k, 2])
+        nk = (n_front[k, 0], n_front[k, 1], n_front[k, 2])
+        wk = (wi[k, 0], wi[k, 1], wi[k, 2])
+        tint, value = eval_bsdf(mat_i, mat_f, 0, c, dk, nk, wk)
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3] = tint[0], tint[1], tint[2], value
+        out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, dk, nk, wk)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def emission_of(mat_i, mat_f, color, front):
+    """(`emits`, `emitted`) of material row 0 whose texture has colour `color` at the hit."""
+    e = emitted(mat_i, mat_f, 0, (color[0], color[1], color[2]), front)
+    return emits(mat_i, 0), np.array([e[0], e[1], e[2]])
 
 
 @njit(cache=True, error_model="numpy")

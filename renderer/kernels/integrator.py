@@ -5,13 +5,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..background import BACKGROUND_IMAGE, BG_KIND, background
 from ..camera import camera_ray
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
 from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import EMITTERS, ENVIRONMENT, IMAGE, INSTANCES, LIGHTS, MEDIA
-from ..lights import light_pdf, sample_light
+from ..kernel_flags import EMITTERS, IMAGE, INSTANCES, MEDIA
+from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_KIND, MAT_READS_UV, MAT_TEXTURE, is_zero, scatter
 from ..shapes import MEDIUM, PRIM_KIND, PRIM_MATERIAL
 from ..shapes.dispatch import spawn_origin, surface
@@ -39,19 +37,15 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     samples a point on a light and casts a shadow ray to it (next-event estimation); that
     estimate and the path's own chance hit on a light are weighted by the power heuristic
     (multiple importance sampling), and paths past a few bounces end by Russian roulette.
-    An environment map is one more light there: a light sample goes to it with probability
-    `choose` (environment.py) and to an area light otherwise, and a path that escapes is
-    weighed against the map's sampler the same way.
+    The lights are the light category's (lights.py): `sample_li` chooses one of every kind and
+    samples it, `pdf_li` and `radiance_escaped` give the density it would have had for a path
+    that hits a light or escapes to one at infinity (an environment map).
     """
     r, g, b = 0.0, 0.0, 0.0
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
     mis = integrator == INTEGRATOR_MIS
-    env_map = ENVIRONMENT and S.background[BG_KIND] == BACKGROUND_IMAGE
-    # The share of light samples that go to the map (0 without one, or for a black one).
-    choose = S.background[ENV_CHOOSE] if env_map and mis else 0.0
-    env_nee = choose > 0.0
-    nee = LIGHTS and mis and S.light_i.shape[0] > 0
+    nee = mis and lights_to_sample(S)
     # The solid angle density with which the last vertex chose this ray's direction; 0 after
     # the camera and after a metal or a dielectric, whose directions no light sampler can give.
     prev_pdf = 0.0
@@ -63,14 +57,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
-            if env_map:
-                bg, env_pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, d)
-                if env_nee and prev_pdf > 0.0:
-                    # The map's sampler could have given this direction too: weigh the two ways.
-                    w = 1.0 / (1.0 + (choose * env_pdf / prev_pdf) ** 2)
-                    bg = (bg[0] * w, bg[1] * w, bg[2] * w)
-            else:
-                bg = background(S.background, d)
+            bg, light = radiance_escaped(S, d)
+            if light > 0.0 and prev_pdf > 0.0:
+                # A light at infinity's sampler could have given this direction too: weigh the two ways.
+                w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
+                bg = (bg[0] * w, bg[1] * w, bg[2] * w)
             r += tr * bg[0]
             g += tg * bg[1]
             b += tb * bg[2]
@@ -103,7 +94,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
             if nee and prev_pdf > 0.0:
                 # The light sampler could have found this point too: weigh the two ways.
-                light = light_pdf(S, inst, prim, prev_p, p, n, time) * (1.0 - choose)
+                light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, p, n, time)
                 w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
                 e = (e[0] * w, e[1] * w, e[2] * w)
             r += tr * e[0]
@@ -115,19 +106,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             break
         att = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, tex, u, v, p)
         # The shadow ray is the path's next segment: only where max_depth allows one more.
-        if (nee or env_nee) and bounce + 1 < max_depth and (kind == LAMBERTIAN or kind == ISOTROPIC):
+        if nee and bounce + 1 < max_depth and (kind == LAMBERTIAN or kind == ISOTROPIC):
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
-            ok, x, wi, light, le, reach = False, p, n_front, 0.0, (0.0, 0.0, 0.0), 1.0 - SHADOW_MARGIN
-            if ENVIRONMENT and env_nee and u0 < choose:
-                # Toward the map: a direction, and a shadow ray to infinity.
-                ok, wi, light, le = sample_environment(S.background, S.env_rgb, S.env_row_f, S.env_texel_f, u1, u2)
-                light *= choose
-                reach = math.inf
-            elif nee:
-                # Toward an area light, u0 rescaled to choose one (exactly u0 when there is no map).
-                ok, x, wi, _, light, le = sample_light(S, p, time, (u0 - choose) / (1.0 - choose), u1, u2)
-                light *= 1.0 - choose
+            # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
+            ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
             if kind == LAMBERTIAN:
                 density = dot(wi, n_front) / math.pi  # the cosine lobe's, and the BRDF times the cosine
             else:
@@ -135,7 +118,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             if ok and density > 0.0 and light > 0.0:
                 origin = p if prim_kind == MEDIUM else spawn_origin(p, o, n_front, wi)
                 rays += 1
-                toward = wi if reach == math.inf else sub(x, origin)
+                # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
+                if reach == math.inf:
+                    toward = wi
+                else:
+                    toward, reach = sub(x, origin), 1.0 - SHADOW_MARGIN
                 seen = transmittance(S, origin, toward, reach, time, stack, tstack)
                 if seen > 0.0:
                     w = 1.0 / (1.0 + (density / light) ** 2)

@@ -217,7 +217,8 @@ def select_light(S, u0):
     """The one light-selection step: (the light row u0 chooses, -1 for none, and the share of
     its group: choose for the map, 1 - choose for the rest, whose own pmf their kind applies)."""
     choose = map_choice(S)
-    if u0 < choose:
+    # (choose > 0 first: in a kernel without maps choose is the constant 0, and this folds away.)
+    if choose > 0.0 and u0 < choose:
         return 0, choose
     first = 1 if choose > 0.0 else 0
     count = S.light_i.shape[0] - first

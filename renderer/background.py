@@ -29,7 +29,6 @@ IMAGE_BACKGROUND = Layout("background image", "float64", [
     Column("height", 1, "texels down (v, from straight up to straight down)"),
     Column("cos_rotate", 1, "cosine of the map's turn about +y"),
     Column("sin_rotate", 1, "its sine"),
-    Column("choose", 1, "probability that a light sample goes to the map rather than to an area light; 0: never sampled"),
 ], 7)
 SOLID_BACKGROUND.shares(SKY_BACKGROUND, "kind")
 SOLID_BACKGROUND.shares(IMAGE_BACKGROUND, "kind")
@@ -51,7 +50,7 @@ def flatten(graph) -> list[float]:
 def background(bg, d):
     """The radiance of a ray that meets nothing, for a solid or sky background row. An image
     row (BACKGROUND_IMAGE) is environment.environment_radiance's, which also gives the density
-    its MIS weight needs; the integrator asks that one, never this, for an image."""
+    its MIS weight needs; lights.radiance_escaped asks that one, never this, for an image."""
     lo, hi = BG_BOTTOM, BG_TOP
     if SKY and bg[BG_KIND] == BACKGROUND_SKY:
         a = 0.5 * (unit(d)[1] + 1.0)

@@ -383,9 +383,9 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **lights.no_lights(0, 0),
         **environment.no_environment(),
     )
-    light_tables, light_power = lights.flatten(flat)
-    flat = flat._replace(**light_tables)
-    return flat._replace(**environment.flatten(flat, walk.graph, light_power))
+    env_tables, env_power = environment.flatten(flat, walk.graph)
+    flat = flat._replace(**env_tables)
+    return flat._replace(**lights.flatten(flat, env_power))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

@@ -17,14 +17,11 @@ in (u, v) is p(u, v) = f / mean(f), and per solid angle, with d omega = 2 pi^2 s
 
     pdf(omega) = p(u, v) / (2 pi^2 sin theta).
 
-Choosing between the map and the area lights: with `integrator: mis` a light sample goes to
-the map with probability `choose` (the background row), else to an area light (lights.py,
-chosen by power as before). `choose` is the map's share of the power: the map sends a scene of
-bounding radius R the flux pi R^2 times its radiance integrated over the sphere, against
-2 pi A L for a two-sided area light (lights.py's powers are A L); clamped to [0.1, 0.9] when
-both kinds are present, so neither starves when the estimate is poor (R from a huge ground
-sphere), and 1 when the map is the only light. A map with no light (black, or strength 0) is
-never sampled: `choose` is 0 and its (zero) radiance is found only by BSDF rays.
+The map is a kind of light (lights.py, ENVIRONMENT_LIGHT): with `integrator: mis` the one
+light-selection step there sends a light sample to it with probability `choose`, its share of
+the power, from the flux it sends a scene of bounding radius R (`flux`: pi R^2 times its
+radiance integrated over the sphere). A map with no light (black, or strength 0) is not a
+light: it is never sampled, and its (zero) radiance is found only by BSDF rays.
 """
 
 from __future__ import annotations
@@ -49,12 +46,8 @@ ENV_TEXEL_F = Layout("env_texel_f", "float64", [
 ])
 (ENV_ROW_CDF,) = ENV_ROW_F.offsets("cdf")
 ENV_TEXEL_CDF, ENV_TEXEL_DENSITY = ENV_TEXEL_F.offsets("cdf", "density")
-ENV_WIDTH, ENV_HEIGHT, ENV_COS, ENV_SIN, ENV_CHOOSE = IMAGE_BACKGROUND.offsets(
-    "width", "height", "cos_rotate", "sin_rotate", "choose")
+ENV_WIDTH, ENV_HEIGHT, ENV_COS, ENV_SIN = IMAGE_BACKGROUND.offsets("width", "height", "cos_rotate", "sin_rotate")
 
-# The least and most share of light samples the map gets when area lights are present too.
-MIN_CHOOSE = 0.1
-MAX_CHOOSE = 0.9
 TWO_PI_SQUARED = 2.0 * math.pi * math.pi
 
 
@@ -99,37 +92,30 @@ def scene_radius(flat) -> float:
     return radius if math.isfinite(radius) and radius > 0.0 else 1.0
 
 
-def choice(flat, env_power: float, light_power: float) -> float:
-    """The probability that a light sample goes to the map (see the module's docstring), for
-    area lights of total power `light_power` (lights.flatten's)."""
-    if not env_power > 0.0:
-        return 0.0
-    if len(flat.light_i) == 0:
-        return 1.0
-    area = 2.0 * math.pi * light_power
-    env = math.pi * scene_radius(flat) ** 2 * env_power
-    share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
-    return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
+def flux(flat, radiance: float) -> float:
+    """The flux a map of `radiance` integrated over the sphere sends into flat scene `flat`:
+    pi R^2 times it, for the scene's bounding radius R (lights.map_share weighs it)."""
+    return math.pi * scene_radius(flat) ** 2 * radiance
 
 
-def flatten(flat, graph, light_power: float) -> dict[str, np.ndarray]:
-    """The background row and environment tables of `flat` (whose lights are flattened, with
-    total power `light_power`), or nothing for a background that is not an image."""
+def flatten(flat, graph) -> tuple[dict[str, np.ndarray], float]:
+    """The background row and environment tables of `flat`, and the map's radiance integrated
+    over the sphere (for lights.flatten); nothing and 0 for a background that is not an image."""
     from scenefmt.scene import ImageBackground
 
     from .textures import load_image_texels
 
     bg = graph.background
     if not isinstance(bg, ImageBackground):
-        return {}
+        return {}, 0.0
     texels = load_image_texels(graph.environment_path, "srgb")  # float images as stored, 8-bit ones as sRGB
     rgb = np.ascontiguousarray(texels * np.float32(bg.strength), dtype=np.float32)
     h, w = rgb.shape[:2]
     rows, texel_f, power = tables(rgb)
     turn = math.radians(bg.rotate)
     row = IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE), width=float(w), height=float(h), cos_rotate=math.cos(turn),
-                               sin_rotate=math.sin(turn), choose=choice(flat, power, light_power))
-    return {"background": np.array(row, np.float64), "env_rgb": rgb.reshape(-1, 3), "env_row_f": rows, "env_texel_f": texel_f}
+                               sin_rotate=math.sin(turn))
+    return {"background": np.array(row, np.float64), "env_rgb": rgb.reshape(-1, 3), "env_row_f": rows, "env_texel_f": texel_f}, power
 
 
 # --- the kernels ------------------------------------------------------------------------------
@@ -139,7 +125,7 @@ def flatten(flat, graph, light_power: float) -> dict[str, np.ndarray]:
 def environment_radiance(bg, env_rgb, env_texel_f, d):
     """The map's radiance arriving along direction d (any length, pointing away from the scene),
     and the solid angle density with which `sample_environment` gives that direction (the
-    choice of the map not included)."""
+    choice of the map not included: lights.pdf_li adds it)."""
     w, h = int(bg[ENV_WIDTH]), int(bg[ENV_HEIGHT])
     c, s = bg[ENV_COS], bg[ENV_SIN]
     # Into the map's frame: the turn about +y undone.

@@ -48,8 +48,9 @@ class FlatScene(NamedTuple):
     # Camera and background: camera.CAMERA, background.py.
     camera: np.ndarray
     background: np.ndarray
-    # Lights (lights.py): emitters by (instance, primitive), the cdf to choose one by power, and
-    # the light row of a hit: inst_light[instance] + prim_light[primitive].
+    # Lights (lights.py): every light by kind (the environment map first, when it sends light;
+    # then the emitting shapes by (instance, primitive)), what chooses one, and the light row of
+    # a hit on a shape: inst_light[instance] + prim_light[primitive].
     light_i: np.ndarray  # LIGHT_I
     light_f: np.ndarray  # LIGHT_F
     inst_light: np.ndarray  # (I,) int32

@@ -61,7 +61,7 @@ HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
 ENVIRONMENT_EXTRA_BYTES_PER_PIXEL = 12 + 6 * 8
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
-# A light row (renderer/lights.py: 3 integers and 12 doubles) per emitting primitive per placement,
+# A light row (renderer/lights.py: 4 integers and 12 doubles) per emitting primitive per placement,
 # with room for the per-primitive index: the light table grows with instancing like placements do.
 LIGHT_BYTES = 128
 # A mesh triangle at its peak while flattening: vertices, indices and per-triangle rows (about

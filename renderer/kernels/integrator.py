@@ -5,12 +5,10 @@ import math
 from numba import njit
 
 from .. import target
-from ..background import BACKGROUND_IMAGE, BG_KIND, background
 from ..camera import camera_ray
-from ..environment import ENV_CHOOSE, environment_radiance, sample_environment
 from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import ENVIRONMENT, INSTANCES, LIGHTS
-from ..lights import light_pdf, sample_light
+from ..kernel_flags import INSTANCES
+from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
 from .rng import bounce_dim, light_dim, path_key, uniform
@@ -37,23 +35,19 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     it (next-event estimation); that estimate and the path's own chance hit on a light are
     weighted by the power heuristic (multiple importance sampling), and paths past a few
     bounces end by Russian roulette.
-    An environment map is one more light there: a light sample goes to it with probability
-    `choose` (environment.py) and to an area light otherwise, and a path that escapes is
-    weighed against the map's sampler the same way.
 
     Materials answer through their interface (materials.py: `sample_bsdf`, `eval_bsdf`,
-    `pdf_bsdf`, `emitted`) and shapes through theirs (shapes/dispatch.py: `interaction`,
-    `is_volume`): this loop names no kind of either.
+    `pdf_bsdf`, `emitted`), shapes through theirs (shapes/dispatch.py: `interaction`,
+    `is_volume`) and lights through the light category (lights.py): `sample_li` chooses one of
+    every kind and samples it, `pdf_li` and `radiance_escaped` give the density it would have
+    had for a path that hits a light or escapes to one at infinity (an environment map). This
+    loop names no kind of any of them.
     """
     r, g, b = 0.0, 0.0, 0.0
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
     mis = integrator == INTEGRATOR_MIS
-    env_map = ENVIRONMENT and S.background[BG_KIND] == BACKGROUND_IMAGE
-    # The share of light samples that go to the map (0 without one, or for a black one).
-    choose = S.background[ENV_CHOOSE] if env_map and mis else 0.0
-    env_nee = choose > 0.0
-    nee = LIGHTS and mis and S.light_i.shape[0] > 0
+    nee = mis and lights_to_sample(S)
     # The solid angle density with which the last vertex chose this ray's direction; 0 after
     # the camera and after a delta lobe (a mirror, glass), whose directions no light sampler can give.
     prev_pdf = 0.0
@@ -65,14 +59,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
-            if env_map:
-                bg, env_pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, d)
-                if env_nee and prev_pdf > 0.0:
-                    # The map's sampler could have given this direction too: weigh the two ways.
-                    w = 1.0 / (1.0 + (choose * env_pdf / prev_pdf) ** 2)
-                    bg = (bg[0] * w, bg[1] * w, bg[2] * w)
-            else:
-                bg = background(S.background, d)
+            bg, light = radiance_escaped(S, d)
+            if light > 0.0 and prev_pdf > 0.0:
+                # A light at infinity's sampler could have given this direction too: weigh the two ways.
+                w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
+                bg = (bg[0] * w, bg[1] * w, bg[2] * w)
             r += tr * bg[0]
             g += tg * bg[1]
             b += tb * bg[2]
@@ -98,7 +89,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             e = emitted(S.mat_i, S.mat_f, mat, color, front)
             if nee and prev_pdf > 0.0:
                 # The light sampler could have found this point too: weigh the two ways.
-                light = light_pdf(S, inst, prim, prev_p, p, n, time) * (1.0 - choose)
+                light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, p, n, time)
                 w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
                 e = (e[0] * w, e[1] * w, e[2] * w)
             r += tr * e[0]
@@ -111,25 +102,21 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if is_zero(new_d):
             break
         # The shadow ray is the path's next segment: only where max_depth allows one more.
-        if (nee or env_nee) and bounce + 1 < max_depth and not delta:
+        if nee and bounce + 1 < max_depth and not delta:
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
-            ok, x, wi, light, le, reach = False, p, n_front, 0.0, (0.0, 0.0, 0.0), 1.0 - SHADOW_MARGIN
-            if ENVIRONMENT and env_nee and u0 < choose:
-                # Toward the map: a direction, and a shadow ray to infinity.
-                ok, wi, light, le = sample_environment(S.background, S.env_rgb, S.env_row_f, S.env_texel_f, u1, u2)
-                light *= choose
-                reach = math.inf
-            elif nee:
-                # Toward an area light, u0 rescaled to choose one (exactly u0 when there is no map).
-                ok, x, wi, _, light, le = sample_light(S, p, time, (u0 - choose) / (1.0 - choose), u1, u2)
-                light *= 1.0 - choose
+            # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
+            ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
             tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, wi)
             density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, wi)
             if ok and f > 0.0 and light > 0.0:
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
-                toward = wi if reach == math.inf else sub(x, origin)
+                # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
+                if reach == math.inf:
+                    toward = wi
+                else:
+                    toward, reach = sub(x, origin), 1.0 - SHADOW_MARGIN
                 seen = transmittance(S, origin, toward, reach, time, stack, tstack)
                 if seen > 0.0:
                     w = 1.0 / (1.0 + (density / light) ** 2)

@@ -4,8 +4,12 @@ A box shape becomes one BOX row when its transform keeps it axis-aligned, it has
 in every axis and its material does not read (u, v); otherwise it is six quads (planar.py).
 One slab test replaces six quad tests: as quads, the final scene's 400 ground boxes were 2400
 rows, and a ray leaving a box top met about seven of them.
+
+An emitting box is sampled uniformly on its surface (`sample_box_surface`); its area is
+measured once, by `area` when flattening.
 """
 
+import numpy as np
 from numba import njit
 
 from scenefmt import affine
@@ -30,6 +34,12 @@ def flatten(model, m):
     if not all(hi[k] > lo[k] for k in range(3)):
         return None
     return BOX, BOX_F.row(lo=lo, hi=hi), lo, hi
+
+
+def area(prims_f: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Surface area of box rows `rows`: twice the sum of their three faces'."""
+    size = prims_f[rows, BOX_HI:BOX_HI + 3] - prims_f[rows, BOX_LO:BOX_LO + 3]
+    return 2.0 * (size[:, 0] * size[:, 1] + size[:, 1] * size[:, 2] + size[:, 2] * size[:, 0])
 
 
 # --- the kernels ------------------------------------------------------------------------------
@@ -86,3 +96,36 @@ def box_surface(data, i, p, d):
     if axis == 1:
         return (p[0], face, p[2]), (0.0, sign, 0.0), 0.0, 0.0
     return (p[0], p[1], face), (0.0, 0.0, sign), 0.0, 0.0
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_box_surface(data, i, box_area, u1, u2):
+    """A point uniform on the surface of box row i, its outward normal and the density per
+    area, 1 / `box_area` (`area`)."""
+    lo = (data[i, BOX_LO], data[i, BOX_LO + 1], data[i, BOX_LO + 2])
+    hi = (data[i, BOX_HI], data[i, BOX_HI + 1], data[i, BOX_HI + 2])
+    sx, sy, sz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
+    faces = (sy * sz, sz * sx, sx * sy)  # the area of a face across x, y and z
+    half = faces[0] + faces[1] + faces[2]
+    # u1 chooses the face (by area) and is reused, rescaled, as the first coordinate on it.
+    pick = u1 * 2.0 * half
+    side = 0
+    if pick >= half:
+        pick -= half
+        side = 1
+    axis = 0
+    while axis < 2 and pick >= faces[axis]:
+        pick -= faces[axis]
+        axis += 1
+    s = min(pick / faces[axis], 1.0) if faces[axis] > 0.0 else 0.5
+    sign = 1.0 if side == 1 else -1.0
+    if axis == 0:
+        x = (hi[0] if side == 1 else lo[0], lo[1] + s * sy, lo[2] + u2 * sz)
+        n = (sign, 0.0, 0.0)
+    elif axis == 1:
+        x = (lo[0] + u2 * sx, hi[1] if side == 1 else lo[1], lo[2] + s * sz)
+        n = (0.0, sign, 0.0)
+    else:
+        x = (lo[0] + s * sx, lo[1] + u2 * sy, hi[2] if side == 1 else lo[2])
+        n = (0.0, 0.0, sign)
+    return x, n, 1.0 / box_area

@@ -1,5 +1,7 @@
-"""Shapes by kind: which family's flattening makes a shape's rows, and which kernel a row's hit takes."""
+"""Shapes by kind: which family's flattening makes a shape's rows, which kernel a row's hit
+takes, and which family measures and samples an emitting row's surface."""
 
+import numpy as np
 from numba import njit
 
 from scenefmt import affine
@@ -7,11 +9,12 @@ from scenefmt import affine
 from ..config import SPAWN_OFFSET
 from ..kernel_flags import MEDIA, MESHES
 from ..kernels.vec import dot, madd, max_abs
-from . import BOX, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, SPHERE, boxes, planar, spheres
-from .boxes import box_surface, hit_box
-from .meshes import mesh_surface
-from .planar import hit_planar, planar_surface
-from .spheres import SPHERE_RADIUS, hit_sphere, sphere_center, sphere_surface
+from . import (BOX, DISK, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE, boxes, meshes,
+               planar, spheres)
+from .boxes import box_surface, hit_box, sample_box_surface
+from .meshes import mesh_surface, sample_mesh_triangle, sampled_normal
+from .planar import hit_planar, planar_surface, sample_planar_surface
+from .spheres import SPHERE_RADIUS, hit_sphere, sample_sphere_surface, sphere_center, sphere_surface
 
 
 def shape_rows(model, m, similarity, shutter: tuple[float, float], as_box: bool):
@@ -34,6 +37,27 @@ def shape_rows(model, m, similarity, shutter: tuple[float, float], as_box: bool)
 def similarity_of(m) -> tuple:
     lin = affine.linear(m)
     return lin, affine.similarity_scale(lin)
+
+
+def surface_records(kind: np.ndarray, prim: np.ndarray, flat) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What `sample_surface` needs of each primitive row `prim` (of kinds `kind`) of flat scene
+    `flat`, measured once here in the tree's space by its family: (area, edge u, edge v, corner).
+    The edges are a planar shape's or a mesh triangle's (zero for others); the corner a mesh
+    triangle's first (other kinds keep theirs in prims_f)."""
+    count = len(prim)
+    area, u, v, corner = np.zeros(count), np.zeros((count, 3)), np.zeros((count, 3)), np.zeros((count, 3))
+    sphere = (kind == SPHERE) | (kind == MOVING_SPHERE)
+    flat_kind = (kind == QUAD) | (kind == TRIANGLE) | (kind == DISK)
+    mesh = kind == MESH_TRIANGLE
+    box = kind == BOX
+    u[flat_kind], v[flat_kind] = planar.edges(flat.prims_f, prim[flat_kind])
+    if mesh.any():
+        corner[mesh], u[mesh], v[mesh] = meshes.corners_and_edges(flat.tri_i, flat.verts_f, prim[mesh] - len(flat.prims_f))
+    area[sphere] = spheres.area(flat.prims_f, prim[sphere])
+    area[flat_kind] = planar.area(kind[flat_kind], u[flat_kind], v[flat_kind])
+    area[mesh] = meshes.area(u[mesh], v[mesh])
+    area[box] = boxes.area(flat.prims_f, prim[box])
+    return area, u, v, corner
 
 
 # --- the kernels ------------------------------------------------------------------------------
@@ -96,6 +120,30 @@ def interaction(S, prim, o, d, t, time, want_uv):
     if MEDIA and kind == MEDIUM:
         return madd(o, d, t), (1.0, 0.0, 0.0), 0.0, 0.0
     return surface(kind, S, prim, o, d, t, time, want_uv)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_surface(kind, data, i, area, eu, ev, corner, time, u1, u2):
+    """A point uniform on the surface of primitive row i of kind `kind` (tree space) at `time`, its
+    outward normal and the density per tree-space area; `area`, `eu`, `ev` and `corner` are the
+    row's record from `surface_records`."""
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        return sample_sphere_surface(kind, data, i, area, time, u1, u2)
+    if kind == BOX:
+        return sample_box_surface(data, i, area, u1, u2)
+    if MESHES and kind == MESH_TRIANGLE:
+        return sample_mesh_triangle(corner, eu, ev, area, u1, u2)
+    return sample_planar_surface(kind, data, i, eu, ev, area, u1, u2)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sampler_normal(kind, eu, ev):
+    """Whether a hit on a row of kind `kind` may find another normal than `sample_surface` gives
+    at the same point (a smooth mesh's triangle blends its vertices'), and if so the sampler's
+    (tree space), which a density per solid angle must use."""
+    if MESHES and kind == MESH_TRIANGLE:
+        return True, sampled_normal(eu, ev)
+    return False, (0.0, 0.0, 0.0)
 
 
 @njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")

@@ -13,10 +13,15 @@ frame by the signs of three edge functions. A point on an edge shared by two tri
 same edge value, with opposite orientation, from both, so a ray through an edge or a vertex
 hits at least one of them: a closed mesh leaks no rays. The edge functions are the (unnormalised)
 barycentric coordinates, which give the hit point, the interpolated normal and (u, v).
+
+An emitting triangle is sampled uniformly (`sample_mesh_triangle`) from its first corner and two
+edges, which `corners_and_edges` gathers when flattening, with its flat normal even on a smooth
+mesh (`sampled_normal`).
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple, Optional
 
 import numpy as np
@@ -25,7 +30,7 @@ from numba import njit
 from scenefmt import affine
 
 from ..columns import Column, Layout
-from ..kernels.vec import cross, dot, scale, sub, unit
+from ..kernels.vec import cross, dot, madd, scale, sub, unit
 from . import INF
 
 TRIANGLE_I = Layout("tri_i", "int32", [
@@ -90,6 +95,17 @@ def flatten(mesh, m, smooth: bool) -> MeshRows:
             normals = vertex_normals(vertices, faces)
     corners = vertices[faces]  # (T, 3, 3)
     return MeshRows(vertices, faces, normals, mesh.uvs, corners.min(axis=1), corners.max(axis=1))
+
+
+def corners_and_edges(tri_i: np.ndarray, verts_f: np.ndarray, rows: np.ndarray):
+    """The first corner and the edges from it to the other two of triangles `rows` of tri_i."""
+    corners = verts_f[tri_i[rows, TRI_VERTEX:TRI_VERTEX + 3]]  # (M, 3 corners, 3)
+    return corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+
+
+def area(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Area of triangles with edges u, v from a corner."""
+    return 0.5 * np.linalg.norm(np.cross(u, v), axis=1)
 
 
 # --- the kernels ------------------------------------------------------------------------------
@@ -199,3 +215,20 @@ def mesh_surface(tri_i, mesh_i, verts_f, verts_n, verts_uv, j, o, d, want_uv):
             tu = b0 * verts_uv[ka, 0] + b1 * verts_uv[kb, 0] + b2 * verts_uv[kc, 0]
             tv = b0 * verts_uv[ka, 1] + b1 * verts_uv[kb, 1] + b2 * verts_uv[kc, 1]
     return p, n, tu, tv
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sampled_normal(eu, ev):
+    """The flat normal of a triangle with edges eu, ev: the one its sampler gives (a smooth
+    mesh's hit blends another, which the density must not use)."""
+    return unit(cross(eu, ev))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_mesh_triangle(q, eu, ev, triangle_area, u1, u2):
+    """A point uniform on the triangle of corner q and edges eu, ev, its flat normal and the
+    density per area, 1 / `triangle_area`."""
+    n = sampled_normal(eu, ev)
+    su = math.sqrt(u1)
+    a, b = 1.0 - su, u2 * su
+    return madd(madd(q, eu, a), ev, b), n, 1.0 / triangle_area

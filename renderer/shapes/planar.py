@@ -5,16 +5,22 @@ vectors A = v x w and B = w x u with w = n / (n . n), n = u x v, so that the pla
 of a point P are alpha = (P - Q) . A and beta = (P - Q) . B. A quad is 0 <= alpha, beta <= 1, a
 triangle 0 <= alpha, beta and alpha + beta <= 1, a disk (u and v radius-long axes) alpha^2 +
 beta^2 <= 1. Any affine map keeps such a shape planar, so transforms are always baked in.
+
+An emitting planar shape is sampled uniformly on its surface (`sample_planar_surface`, from the
+edges u, v that `edges` recovers when flattening, density 1 / area); a rectangular quad near the
+shading point also by the solid angle it subtends (`rectangle_frame`, `sample_rectangle`: the
+spherical rectangle). lights.py chooses between the two.
 """
 
 import math
 
+import numpy as np
 from numba import njit
 
 from scenefmt import affine
 
 from ..columns import Column, Layout
-from ..kernels.vec import dot, max_abs, row3, sub
+from ..kernels.vec import cross, dot, madd, max_abs, neg, row3, scale, sub, unit
 from . import DISK, INF, PRIM_WIDTH, QUAD, TRIANGLE
 
 # A ray this close to parallel with a plane misses it: the hit would be numerically meaningless.
@@ -95,6 +101,35 @@ def flatten(model, m) -> list[tuple[int, list, tuple, tuple]]:
     return out
 
 
+def edges(prims_f: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The edges u, v of planar rows, recovered from their (alpha, beta) dual vectors A and B:
+    u is perpendicular to B and the normal with A . u = 1, v perpendicular to A and the normal
+    with B . v = 1. (A disk's are its two radius vectors.)"""
+    a = prims_f[rows, PLANAR_ALPHA:PLANAR_ALPHA + 3]
+    b = prims_f[rows, PLANAR_BETA:PLANAR_BETA + 3]
+    n = prims_f[rows, PLANAR_NORMAL:PLANAR_NORMAL + 3]
+    u = np.cross(b, n)
+    u /= np.einsum("ij,ij->i", u, a)[:, None]
+    v = np.cross(n, a)
+    v /= np.einsum("ij,ij->i", v, b)[:, None]
+    return u, v
+
+
+def area(kind: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Surface area of planar rows of kinds `kind` with edges u, v (`edges`)."""
+    para = np.linalg.norm(np.cross(u, v), axis=1)
+    out = np.zeros(len(kind))
+    out[kind == QUAD] = para[kind == QUAD]
+    out[kind == TRIANGLE] = 0.5 * para[kind == TRIANGLE]
+    out[kind == DISK] = math.pi * para[kind == DISK]
+    return out
+
+
+def rectangular(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Whether edges u, v meet at a right angle (a quad with them is a rectangle), row by row."""
+    return np.abs(np.einsum("ij,ij->i", u, v)) <= 1e-9 * np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1)
+
+
 # --- the kernels ------------------------------------------------------------------------------
 
 
@@ -141,3 +176,98 @@ def planar_surface(kind, data, i, p):
     if kind == DISK:
         return n, 0.5 * alpha + 0.5, 0.5 * beta + 0.5
     return n, alpha, beta
+
+
+# --- sampling ---------------------------------------------------------------------------------
+
+# A rectangle subtending less than this solid angle is sampled by area: its spherical sampling
+# would lose digits to the arc cosines, and area sampling is nearly uniform in angle there anyway.
+SMALL_RECTANGLE = 1e-3
+# Farther from its centre than this many times the sum of its edges' |x| + |y| + |z|, a rectangle
+# is sampled by area too: the spherical rectangle's four arc cosines and dozen roots buy little there. On the
+# Cornell box they were 45% of a sample's time and changed its error by under 2%, while sampling
+# all by area, the ceiling beside the lamp included, had 1.4 times the variance.
+FAR_RECTANGLE = 0.5
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_planar_surface(kind, data, i, eu, ev, planar_area, u1, u2):
+    """A point uniform on planar row i with edges eu, ev (`edges`), its normal and the density
+    per area, 1 / `planar_area` (`area`)."""
+    q = (data[i, PLANAR_CORNER], data[i, PLANAR_CORNER + 1], data[i, PLANAR_CORNER + 2])
+    n = (data[i, PLANAR_NORMAL], data[i, PLANAR_NORMAL + 1], data[i, PLANAR_NORMAL + 2])
+    if kind == TRIANGLE:
+        su = math.sqrt(u1)
+        a, b = 1.0 - su, u2 * su
+    elif kind == DISK:
+        rr = math.sqrt(u1)
+        phi = 2.0 * math.pi * u2
+        a, b = rr * math.cos(phi), rr * math.sin(phi)
+    else:  # QUAD
+        a, b = u1, u2
+    return madd(madd(q, eu, a), ev, b), n, 1.0 / planar_area
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def rectangle_is_near(q, eu, ev, p):
+    """Whether the rectangle (corner q, edges eu, ev) is near enough p to be sampled by the solid
+    angle it subtends (FAR_RECTANGLE); the sampler and its density decide alike."""
+    reach = 0.0
+    dist2 = 0.0
+    for k in range(3):
+        a, b = eu[k], ev[k]
+        c = q[k] + 0.5 * (a + b) - p[k]
+        dist2 += c * c
+        reach += abs(a) + abs(b)
+    return dist2 < (FAR_RECTANGLE * reach) ** 2
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def rectangle_frame(q, eu, ev, p):
+    """The rectangle (corner q, perpendicular edges eu, ev) as seen from p: its unit axes x, y, z
+    (z pointing away from p's side), the coordinates x0 <= x1, y0 <= y1 and z0 <= 0 of its
+    edges relative to p, the solid angle it subtends, and the terms the sampler needs."""
+    lx, ly = math.sqrt(dot(eu, eu)), math.sqrt(dot(ev, ev))
+    x, y = scale(eu, 1.0 / lx), scale(ev, 1.0 / ly)
+    z = cross(x, y)
+    rel = sub(q, p)
+    z0 = dot(rel, z)
+    if z0 > 0.0:
+        z, z0 = neg(z), -z0
+    x0, y0 = dot(rel, x), dot(rel, y)
+    x1, y1 = x0 + lx, y0 + ly
+    # The normals of the four planes through p and each edge, and the angles between them.
+    n0 = unit(cross((x0, y0, z0), (x1, y0, z0)))
+    n1 = unit(cross((x1, y0, z0), (x1, y1, z0)))
+    n2 = unit(cross((x1, y1, z0), (x0, y1, z0)))
+    n3 = unit(cross((x0, y1, z0), (x0, y0, z0)))
+    g0 = math.acos(min(1.0, max(-1.0, -dot(n0, n1))))
+    g1 = math.acos(min(1.0, max(-1.0, -dot(n1, n2))))
+    g2 = math.acos(min(1.0, max(-1.0, -dot(n2, n3))))
+    g3 = math.acos(min(1.0, max(-1.0, -dot(n3, n0))))
+    k = 2.0 * math.pi - g2 - g3
+    solid = g0 + g1 - k
+    return x, y, z, x0, x1, y0, y1, z0, solid, k, n0[2], n2[2]
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_rectangle(p, frame, u1, u2):
+    """A point of the rectangle whose direction from p is uniform in the solid angle it subtends
+    (the spherical rectangle of Urena, Fajardo and King, 2013): u1 picks the x at which a
+    plane through p cuts off that share of the solid angle, u2 the height on that line."""
+    x, y, z, x0, x1, y0, y1, z0, solid, k, b0, b1 = frame
+    au = u1 * solid + k
+    fu = (math.cos(au) * b0 - b1) / math.sin(au)
+    cu = math.copysign(1.0, fu) / math.sqrt(fu * fu + b0 * b0)
+    cu = min(1.0, max(-1.0, cu))
+    xu = -(cu * z0) / math.sqrt(max(1e-300, 1.0 - cu * cu))
+    xu = min(x1, max(x0, xu))
+    d = math.sqrt(xu * xu + z0 * z0)
+    h0 = y0 / math.sqrt(d * d + y0 * y0)
+    h1 = y1 / math.sqrt(d * d + y1 * y1)
+    hv = h0 + u2 * (h1 - h0)
+    hv2 = hv * hv
+    yv = (hv * d) / math.sqrt(1.0 - hv2) if hv2 < 1.0 - 1e-12 else y1
+    yv = min(y1, max(y0, yv))
+    return (p[0] + xu * x[0] + yv * y[0] + z0 * z[0], p[1] + xu * x[1] + yv * y[1] + z0 * z[1],
+            p[2] + xu * x[2] + yv * y[2] + z0 * z[2])

@@ -1,9 +1,14 @@
-"""Spheres and moving spheres: their rows, their flattening, and their intersection.
+"""Spheres and moving spheres: their rows, their flattening, their intersection and their sampling.
 
 A sphere is baked into world space under any similarity (a rotation, a uniform scale, a
 translation or a mirror); under any other transform it stays a unit-space sphere in a tree of
 its own, placed by an instance (compile.py). A moving sphere's centre is a linear function of
 time over the shutter interval.
+
+An emitting sphere is sampled two ways (lights.py chooses): uniformly on its surface
+(`sample_sphere_surface`, density 1 / area), or, seen from outside under a similarity, by a
+direction uniform in the cone it subtends (`sample_cone`, density per solid angle
+1 / `cone_solid_angle`).
 """
 
 import math
@@ -54,6 +59,12 @@ def flatten(model, m, lin, s, shutter_open: float, shutter_close: float):
     lo = tuple(min(c0[k], c1[k]) - r for k in range(3))
     hi = tuple(max(c0[k], c1[k]) + r for k in range(3))
     return MOVING_SPHERE, row, lo, hi
+
+
+def area(prims_f: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Surface area of sphere rows `rows` (a moving sphere's does not change with time)."""
+    r = prims_f[rows, SPHERE_RADIUS]
+    return 4.0 * math.pi * r * r
 
 
 def flatten_run(centers: np.ndarray, radii: np.ndarray, m, lin, s):
@@ -141,3 +152,90 @@ def sphere_surface(kind, data, i, p, time, want_uv):
     )
     u, v = sphere_uv(n_obj)
     return p, n, u, v
+
+
+# --- sampling ---------------------------------------------------------------------------------
+
+# Below this squared sine of the cone's half-angle, 1 - cos is computed from its series:
+# the difference itself would have lost most of its digits.
+SMALL_CONE = 1e-4
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def frame_of(w):
+    """Two unit vectors completing unit w to an orthonormal frame (Duff et al. 2017)."""
+    sign = math.copysign(1.0, w[2])
+    a = -1.0 / (sign + w[2])
+    b = w[0] * w[1] * a
+    return (1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]), (b, sign + w[1] * w[1] * a, -w[1])
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def uniform_sphere(u1, u2):
+    z = 1.0 - 2.0 * u1
+    r = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u2
+    return (r * math.cos(phi), r * math.sin(phi), z)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_sphere_surface(kind, data, i, sphere_area, time, u1, u2):
+    """A point uniform on the surface of sphere row i at `time`, its outward normal and the
+    density per area, 1 / `sphere_area` (the row's `area`, measured when flattening)."""
+    c = sphere_center(kind, data, i, time)
+    r = data[i, SPHERE_RADIUS]
+    n = uniform_sphere(u1, u2)
+    return madd(c, n, r), n, 1.0 / sphere_area
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def cone_one_minus_cos(sin2_max):
+    """1 - cos(theta_max) of a cone whose half-angle has squared sine sin2_max, without cancellation."""
+    if sin2_max < SMALL_CONE:
+        return 0.5 * sin2_max + 0.125 * sin2_max * sin2_max
+    return 1.0 - math.sqrt(max(0.0, 1.0 - sin2_max))
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def cone_from(p, c, r):
+    """|p - c|^2, and whether p is outside the sphere (c, r) by enough for the cone it subtends
+    to be sampled (from inside, or on it, only the surface can be)."""
+    rel = sub(p, c)
+    dist2 = dot(rel, rel)
+    return dist2, dist2 > r * r * (1.0 + 1e-9)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def cone_solid_angle(r, dist2):
+    """The solid angle of the cone a sphere of radius r subtends from a point dist2 (squared)
+    from its centre: `sample_cone`'s density is its inverse."""
+    return 2.0 * math.pi * cone_one_minus_cos(r * r / dist2)
+
+
+@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+def sample_cone(p, c, r, dist2, u1, u2):
+    """A point and outward normal on the sphere (c, r) seen from p outside it, whose direction from
+    p is uniform in the cone the sphere subtends; and that cone's solid angle density.
+
+    The direction makes angle theta with the axis, cos theta uniform in [cos theta_max, 1]; the
+    point is where it first meets the sphere, found from the angle alpha at the centre between
+    the axis and the point (law of sines in the triangle p, c, point) rather than by intersecting
+    a ray that may graze the sphere.
+    """
+    sin2_max = r * r / dist2
+    one_minus = cone_one_minus_cos(sin2_max)
+    # 1 - cos(theta) uniform in [0, 1 - cos(theta_max)], kept as a difference for small cones.
+    om = u1 * one_minus
+    cos_t = 1.0 - om
+    sin2_t = om * (2.0 - om)
+    sin_max = math.sqrt(sin2_max)
+    cos_a = sin2_t / sin_max + cos_t * math.sqrt(max(0.0, 1.0 - sin2_t / sin2_max))
+    cos_a = min(1.0, max(-1.0, cos_a))
+    sin_a = math.sqrt(max(0.0, 1.0 - cos_a * cos_a))
+    phi = 2.0 * math.pi * u2
+    axis = scale(sub(p, c), 1.0 / math.sqrt(dist2))  # from the centre towards p
+    e1, e2 = frame_of(axis)
+    ca, sa = sin_a * math.cos(phi), sin_a * math.sin(phi)
+    n = (ca * e1[0] + sa * e2[0] + cos_a * axis[0], ca * e1[1] + sa * e2[1] + cos_a * axis[1],
+         ca * e1[2] + sa * e2[2] + cos_a * axis[2])
+    return madd(c, n, r), n, 1.0 / (2.0 * math.pi * one_minus)

@@ -15,7 +15,10 @@ from renderer.config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from renderer.kernels.shadow import transmittance
 from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
 from renderer.kernels.vec import unit, xform_normal, xform_point, xform_vector
-from renderer.lights import light_pdf, sample_light
+from renderer.lights import (LIGHT_PRIMITIVE, light_of_hit, pdf_li, radiance_escaped, sample_li, sample_light_surface,
+                             select_light, share_of)
+from renderer.shapes.planar import rectangle_frame
+from renderer.shapes.spheres import sample_cone
 from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
@@ -168,14 +171,14 @@ def _hit(S, p, d, time, stack, tstack):
 
 @njit(cache=True, error_model="numpy")
 def light_samples(S, p, time, seed, n):
-    """n draws of `sample_light` from point p: rows (ok, direction 3, distance, pdf, emission 3,
-    the pdf `light_pdf` gives the first surface along the direction, that surface's distance)."""
+    """n draws of `sample_li` from point p: rows (ok, direction 3, distance, pdf, emission 3,
+    the pdf `pdf_li` gives the first surface along the direction, that surface's distance)."""
     out = np.zeros((n, 11))
     stack, tstack = _stacks()
     p = (p[0], p[1], p[2])
     for k in range(n):
         key = path_key(seed, k, 0)
-        ok, x, wi, dist, pdf, le = sample_light(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
+        ok, x, wi, dist, pdf, le = sample_li(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
                                                 uniform(key, light_dim(0, 2)))
         out[k, 0] = 1.0 if ok else 0.0
         out[k, 1], out[k, 2], out[k, 3] = wi[0], wi[1], wi[2]
@@ -184,7 +187,7 @@ def light_samples(S, p, time, seed, n):
         if ok:
             prim, inst, xh, nh = _hit(S, p, wi, time, stack, tstack)
             if prim >= 0:
-                out[k, 9] = light_pdf(S, inst, prim, p, xh, nh, time)
+                out[k, 9] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
                 out[k, 10] = math.sqrt((xh[0] - p[0]) ** 2 + (xh[1] - p[1]) ** 2 + (xh[2] - p[2]) ** 2)
     return out
 
@@ -198,8 +201,8 @@ def light_pdf_along(S, p, dirs, time):
     for k in range(dirs.shape[0]):
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
         prim, inst, xh, nh = _hit(S, p, d, time, stack, tstack)
-        if prim >= 0 and S.prim_light[prim] >= 0:
-            out[k] = light_pdf(S, inst, prim, p, xh, nh, time)
+        if prim >= 0:
+            out[k] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
     return out
 
 
@@ -246,3 +249,103 @@ def ray_transmittance(S, o, d, tmax, time):
     """`transmittance` along o + t d for t in (0, tmax); tmax may be inf (a shadow ray to the environment)."""
     stack, tstack = _stacks()
     return transmittance(S, (o[0], o[1], o[2]), (d[0], d[1], d[2]), tmax, time, stack, tstack)
+
+
+# --- the light category's interface -----------------------------------------------------------
+
+
+@njit(cache=True, error_model="numpy")
+def line_crossings(S, centre, radius, dirs, offsets):
+    """How many times each of a family of lines crosses the scene's surfaces: line k runs along
+    unit dirs[k] through centre + offsets[k] (a point of the disk of `radius` about the centre,
+    perpendicular to the line), and every crossing within the ball of `radius` counts."""
+    out = np.zeros(dirs.shape[0], np.int64)
+    stack, tstack = _stacks()
+    for k in range(dirs.shape[0]):
+        d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
+        o = (centre[0] + offsets[k, 0] - 2.0 * radius * d[0], centre[1] + offsets[k, 1] - 2.0 * radius * d[1],
+             centre[2] + offsets[k, 2] - 2.0 * radius * d[2])
+        t = 0.0
+        while out[k] < 64:
+            t_hit, prim, _ = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+                                             S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, t, 4.0 * radius, 0.0, np.uint64(1), 0,
+                                             stack, tstack)
+            if prim < 0:
+                break
+            out[k] += 1
+            t = t_hit
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def surface_samples(S, light, us, time):
+    """Rows (point 3, normal 3, density per area) of area light row `light`'s surface sampler
+    (tree space) at each (u1, u2) of `us`."""
+    out = np.zeros((us.shape[0], 7))
+    prim = S.light_i[light, LIGHT_PRIMITIVE]
+    kind = S.prims_i[prim, PRIM_KIND]
+    for k in range(us.shape[0]):
+        x, n, pdf = sample_light_surface(S, light, kind, prim, time, us[k, 0], us[k, 1])
+        out[k, 0], out[k, 1], out[k, 2] = x[0], x[1], x[2]
+        out[k, 3], out[k, 4], out[k, 5] = n[0], n[1], n[2]
+        out[k, 6] = pdf
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def li_and_pdf_li(S, p, time, seed, n, map_row):
+    """n draws of `sample_li` from p, each beside the density `pdf_li` gives what it drew: rows
+    (ok, distance, pdf, pdf_li, distance to the first surface along wi (inf: none), pdf of
+    `radiance_escaped` along wi). A draw at infinity is light row `map_row`'s; any other is the
+    light the ray along wi meets first."""
+    out = np.zeros((n, 6))
+    stack, tstack = _stacks()
+    p = (p[0], p[1], p[2])
+    for k in range(n):
+        key = path_key(seed, k, 0)
+        ok, x, wi, dist, pdf, le = sample_li(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
+                                             uniform(key, light_dim(0, 2)))
+        out[k, 0] = 1.0 if ok else 0.0
+        out[k, 1], out[k, 2] = dist, pdf
+        if not ok:
+            continue
+        prim, inst, xh, nh = _hit(S, p, wi, time, stack, tstack)
+        out[k, 4] = math.sqrt((xh[0] - p[0]) ** 2 + (xh[1] - p[1]) ** 2 + (xh[2] - p[2]) ** 2) if prim >= 0 else math.inf
+        out[k, 5] = radiance_escaped(S, wi)[1]
+        if dist == math.inf:
+            out[k, 3] = pdf_li(S, map_row, p, wi, wi, time)
+        elif prim >= 0:
+            out[k, 3] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def selections(S, us):
+    """For each u0 of `us`: the light row `select_light` chooses and the share it reports, and
+    the share `share_of` gives that row."""
+    out = np.zeros((us.shape[0], 3))
+    for k in range(us.shape[0]):
+        light, share = select_light(S, us[k])
+        out[k, 0], out[k, 1] = light, share
+        out[k, 2] = share_of(S, light) if light >= 0 else -1.0
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def cone_samples(p, c, r, us):
+    """Rows (point 3, normal 3, density) of `sample_cone` from p toward the sphere (c, r)."""
+    out = np.zeros((us.shape[0], 7))
+    d = (p[0] - c[0], p[1] - c[1], p[2] - c[2])
+    dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    for k in range(us.shape[0]):
+        x, n, pdf = sample_cone((p[0], p[1], p[2]), (c[0], c[1], c[2]), r, dist2, us[k, 0], us[k, 1])
+        out[k, 0], out[k, 1], out[k, 2] = x[0], x[1], x[2]
+        out[k, 3], out[k, 4], out[k, 5] = n[0], n[1], n[2]
+        out[k, 6] = pdf
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def rectangle_solid_angle(q, eu, ev, p):
+    """The solid angle `rectangle_frame` finds for the rectangle (q, eu, ev) seen from p."""
+    return rectangle_frame((q[0], q[1], q[2]), (eu[0], eu[1], eu[2]), (ev[0], ev[1], ev[2]), (p[0], p[1], p[2]))[8]

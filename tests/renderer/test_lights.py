@@ -2,10 +2,10 @@
 
 For every kind of emitter the format can express (quad, triangle, disk, box, a sphere seen from
 outside and from inside, an ellipsoid, a smooth mesh, an emitter inside a rotated and scaled instance, a moving
-sphere at a chosen time, a textured emitter), directions drawn by `lights.sample_light` from a
+sphere at a chosen time, a textured emitter), directions drawn by `lights.sample_li` from a
 fixed point are binned on a grid of (1 - cos theta, phi) about the axis to the light, and the
 counts are tested (chi-square, as tests/renderer/test_sampling.py does for BSDFs) against the
-probabilities found by integrating `lights.light_pdf` over each cell: 32 x 32 directions a
+probabilities found by integrating `lights.pdf_li` over each cell: 32 x 32 directions a
 cell, each traced to the light. The integral over all cells must be 1: the density is a density.
 """
 
@@ -17,8 +17,8 @@ import pytest
 from renderer.compile import compile_scene, with_integrator, with_width
 from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED
 from renderer.kernels.vec import xform_point
-from renderer.lights import (LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_RECTANGLE, LIGHT_STRATEGY, SMALL_RECTANGLE,
-                             light_rectangle, near_rectangle)
+from renderer.lights import BY_RECTANGLE, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY
+from renderer.shapes.planar import PLANAR_CORNER, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near
 from renderer.render import render
 from scenefmt.validation import loads
 from tests.renderer.kernel_calls import light_pdf_along, light_samples, segment_transmittance
@@ -38,9 +38,9 @@ CASES = [
     ("quad", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0, 0.5, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
     ("parallelogram", "shapes: [{type: quad, q: [-1, 2, -0.5], u: [2, 0, 0], v: [0.6, 0.4, 1], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
     ("close rectangle", "shapes: [{type: quad, q: [-3, 0.05, -2], u: [6, 0, 0], v: [0, 0, 4], material: lamp}]", (0.3, 0.0, 0.2), 0.0),
-    # Beyond lights.FAR_RECTANGLE times its edges from its centre: sampled by area.
+    # Beyond planar.FAR_RECTANGLE times its edges from its centre: sampled by area.
     ("far rectangle", "shapes: [{type: quad, q: [-0.5, 6, -0.4], u: [1, 0, 0], v: [0, 0.3, 0.8], material: lamp}]", (0.2, 0.0, 0.1), 0.0),
-    # Within lights.FAR_RECTANGLE times its edges (1.6 from its centre, in the group's frame, against
+    # Within planar.FAR_RECTANGLE times its edges (1.6 from its centre, in the group's frame, against
     # 1.75): the spherical rectangle, through an instance's similarity.
     ("rotated rectangle", "groups: {panel: {shapes: [{type: quad, q: [-1, 0, -1], u: [2, 0, 0], v: [0, 0, 1.5], material: lamp}]}}\n"
      "shapes: [{type: instance, group: panel, transform: [{scale: 0.8}, {rotate: {axis: [1, 0, 1], degrees: 150}}, {translate: [0.3, 1.2, 0]}]}]",
@@ -63,8 +63,8 @@ CASES = [
 ]
 
 
-# Which of sample_light's ways each rectangle is drawn from its shading point: True, near enough
-# (lights.near_rectangle) to be drawn uniform in the solid angle it subtends; False, by area.
+# Which of sample_li's ways each rectangle is drawn from its shading point: True, near enough
+# (planar.rectangle_is_near) to be drawn uniform in the solid angle it subtends; False, by area.
 RECTANGLE_NEAR = {"quad": False, "close rectangle": True, "far rectangle": False, "rotated rectangle": True}
 
 
@@ -79,15 +79,18 @@ def test_each_rectangle_is_sampled_the_way_its_case_is_meant_to_test(name, near)
     near ones, the rotated one through its instance's transform, and sampling by area for the far ones."""
     _, shapes, point, _ = next(c for c in CASES if c[0] == name)
     flat = flat_of(shapes)
-    assert len(flat.light_i) == 1 and flat.light_i[0, LIGHT_STRATEGY] == LIGHT_RECTANGLE
+    assert len(flat.light_i) == 1 and flat.light_i[0, LIGHT_STRATEGY] == BY_RECTANGLE
     inst, prim = flat.light_i[0, LIGHT_INSTANCE], flat.light_i[0, LIGHT_PRIMITIVE]
     moved = flat.inst_i[inst, INST_UNTRANSFORMED] != 1
     assert moved == (name == "rotated rectangle")
     p = tuple(float(x) for x in point)
     p_tree = xform_point(flat.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
-    assert near_rectangle(flat, 0, prim, p_tree) == near
+    q = tuple(float(x) for x in flat.prims_f[prim, PLANAR_CORNER:PLANAR_CORNER + 3])
+    eu = tuple(float(x) for x in flat.light_f[0, LIGHT_EDGE_U:LIGHT_EDGE_U + 3])
+    ev = tuple(float(x) for x in flat.light_f[0, LIGHT_EDGE_V:LIGHT_EDGE_V + 3])
+    assert rectangle_is_near(q, eu, ev, p_tree) == near
     if near:
-        assert light_rectangle(flat, 0, prim, p_tree)[8] > SMALL_RECTANGLE  # not too small a solid angle to use
+        assert rectangle_frame(q, eu, ev, p_tree)[8] > SMALL_RECTANGLE  # not too small a solid angle to use
 
 
 def direction_grid(axis, cos_bound):
@@ -131,7 +134,7 @@ def test_sampled_directions_follow_the_light_pdf(name, shapes, point, time):
     assert np.all(np.isfinite(pdf)) and np.all(pdf > 0)
     # A point on the far side of a closed light (a box, an ellipsoid) is hidden by its near side:
     # its shadow ray is blocked and it adds nothing. For every visible point, the density the
-    # draw reports is the one light_pdf gives the surface it points at: the sampler and the MIS
+    # draw reports is the one pdf_li gives the surface it points at: the sampler and the MIS
     # weight of a path that reaches the same point agree.
     visible = np.abs(draws[ok, 10] - draws[ok, 4]) <= 1e-6 * draws[ok, 4]
     if name not in ("box", "ellipsoid"):

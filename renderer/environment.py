@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from . import target
 
 from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
 from .columns import Column, Layout
@@ -121,7 +121,7 @@ def flatten(flat, graph) -> tuple[dict[str, np.ndarray], float]:
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def environment_radiance(bg, env_rgb, env_texel_f, d):
     """The map's radiance arriving along direction d (any length, pointing away from the scene),
     and the solid angle density with which `sample_environment` gives that direction (the
@@ -151,7 +151,7 @@ def environment_radiance(bg, env_rgb, env_texel_f, d):
     return (float(env_rgb[k, 0]), float(env_rgb[k, 1]), float(env_rgb[k, 2])), pdf
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_environment(bg, env_rgb, env_row_f, env_texel_f, u1, u2):
     """A direction drawn from the map by brightness: (ok, unit direction, solid angle density
     without the choice of the map, radiance). Not ok for a draw exactly at a pole."""

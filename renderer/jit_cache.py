@@ -28,7 +28,6 @@ from typing import Optional
 
 import numba
 
-_configured = False
 
 
 def source_version() -> str:
@@ -111,12 +110,7 @@ def folder_for(tag: str) -> Optional[str]:
 DECLARE_LOCK = threading.RLock()
 
 
-def configure() -> str:
-    """The general kernel's cache folder, also set as Numba's folder for the whole process
-    (once): TRANSITIONAL, for the modules that still declare with `numba.njit` rather than
-    through renderer/target.py, which sets the folder at each declaration instead."""
-    global _configured
-    if not _configured and not os.environ.get("NUMBA_CACHE_DIR") and base_folder():
-        numba.config.CACHE_DIR = base_folder()
-    _configured = True
-    return numba.config.CACHE_DIR
+def general_folder() -> str:
+    """The folder the general kernel's compiled code is cached in (Numba's own choice where
+    `base_folder` is None); nothing is changed: renderer/target.py applies it per declaration."""
+    return base_folder() or numba.config.CACHE_DIR

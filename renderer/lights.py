@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from . import target
 
 from . import environment
 from .background import BACKGROUND_IMAGE, BG_KIND, background
@@ -197,14 +197,14 @@ def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:
 # --- the kernels: selection and the integrator's two questions --------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def lights_to_sample(S):
     """Whether the scene has a light that `sample_li` can draw (a kernel compiled without light
     sampling and without an environment map has none: its code for them is left out)."""
     return (LIGHTS or ENVIRONMENT) and S.light_i.shape[0] > 0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def map_choice(S):
     """choose: the probability of row 0 when the map heads the table, else 0."""
     if ENVIRONMENT and S.light_i.shape[0] > 0 and S.light_i[0, LIGHT_KIND] == ENVIRONMENT_LIGHT:
@@ -212,7 +212,7 @@ def map_choice(S):
     return 0.0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def select_light(S, u0):
     """The one light-selection step: (the light row u0 chooses, -1 for none, and the share of
     its group: choose for the map, 1 - choose for the rest, whose own pmf their kind applies)."""
@@ -228,7 +228,7 @@ def select_light(S, u0):
     return search_cdf(S.light_f, LIGHT_CDF, first, count, (u0 - choose) / (1.0 - choose)), 1.0 - choose
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def share_of(S, light):
     """The share of light row `light`'s group, as `select_light` gives it."""
     choose = map_choice(S)
@@ -237,7 +237,7 @@ def share_of(S, light):
     return 1.0 - choose
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_li(S, p, time, u0, u1, u2):
     """A light sample for shading point p (world): (ok, point on the light or, for a light at
     infinity, the direction to it; unit direction wi from p; the distance to the point, inf for
@@ -258,7 +258,7 @@ def sample_li(S, p, time, u0, u1, u2):
     return False, p, zero, 0.0, 0.0, zero
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def pdf_li(S, light, p, x, n, time):
     """The density, per solid angle at p and including the choice of light, with which
     `sample_li` from shading point p gives light row `light` at point x with normal n (for a
@@ -275,7 +275,7 @@ def pdf_li(S, light, p, x, n, time):
     return 0.0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def light_of_hit(S, inst, prim):
     """The light row of a hit on primitive `prim` placed by instance `inst`: -1 where it does
     not emit, or emits nothing and is never sampled."""
@@ -284,7 +284,7 @@ def light_of_hit(S, inst, prim):
     return S.inst_light[inst] + S.prim_light[prim]
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def radiance_escaped(S, d):
     """What a ray along d that meets nothing brings back: the background's radiance, and the
     density `pdf_li` gives d (0 where the background is not sampled as a light)."""
@@ -298,31 +298,31 @@ def radiance_escaped(S, d):
 # --- the kernels: area lights -----------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def light_edges(S, light):
     eu = (S.light_f[light, LIGHT_EDGE_U], S.light_f[light, LIGHT_EDGE_U + 1], S.light_f[light, LIGHT_EDGE_U + 2])
     ev = (S.light_f[light, LIGHT_EDGE_V], S.light_f[light, LIGHT_EDGE_V + 1], S.light_f[light, LIGHT_EDGE_V + 2])
     return eu, ev
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def light_corner(S, light):
     return (S.light_f[light, LIGHT_CORNER], S.light_f[light, LIGHT_CORNER + 1], S.light_f[light, LIGHT_CORNER + 2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def planar_corner(S, prim):
     return (S.prims_f[prim, PLANAR_CORNER], S.prims_f[prim, PLANAR_CORNER + 1], S.prims_f[prim, PLANAR_CORNER + 2])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_light_surface(S, light, kind, prim, time, u1, u2):
     """A point uniform on area light row `light`'s surface (tree space), its normal and density per area."""
     eu, ev = light_edges(S, light)
     return sample_surface(kind, S.prims_f, prim, S.light_f[light, LIGHT_AREA], eu, ev, light_corner(S, light), time, u1, u2)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def area_ratio(inst_f, inst, n_world):
     """Tree-space area per world area at a surface point of world normal n_world (unit): for the
     map L from tree to world, |det L^-1| |L^T n|."""
@@ -338,7 +338,7 @@ def area_ratio(inst_f, inst, n_world):
     return abs(det) * math.sqrt(dot(lt, lt))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
@@ -348,12 +348,12 @@ def emission(S, prim, x_tree, n_tree, x_world, time):
     return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, x_world)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def luminance(c):
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_area_light(S, light, p, time, u1, u2):
     """A point on area light row `light` for shading point p (world): (ok, point, unit direction
     from p, distance, solid angle density including the light's pmf among the area lights,
@@ -406,7 +406,7 @@ def sample_area_light(S, light, p, time, u1, u2):
     return True, x, wi, dist, pdf, emission(S, prim, x_tree, n_tree, x, time)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def pdf_area_light(S, light, p, x, n, time):
     """The density `sample_area_light` from shading point p gives the point x (normal n) of area
     light row `light`, per solid angle at p and including the light's pmf among the area lights."""
@@ -449,7 +449,7 @@ def pdf_area_light(S, light, p, x, n, time):
     return pmf * per_area * dist2 / cos_l
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def light_powers(S, out):
     """out[l] = world area of area light l times the luminance of its mean emission over 4x4
     stratified points (every row of S.light_i an area light)."""

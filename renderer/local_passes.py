@@ -13,7 +13,7 @@ import numpy as np
 from .executor import KernelTime, Plan, Step
 from .film import Film
 from .flat import FlatScene
-from .jit_cache import configure as kernel_cache_folder
+from .jit_cache import general_folder as kernel_cache_folder
 from .variants import KernelFeatures, is_compiled, kernels_for, mark_compiled
 
 # The first band of a render, before its speed is known, in rows per render thread: small, so
@@ -109,11 +109,11 @@ class LocalPasses:
                   pass_seconds: float = PASS_SECONDS) -> "LocalPasses":
         """The executor for `flat` with the image settings of `frame` (a flat.Frame), `seed` and
         `max_depth` overriding the scene's, on Numba's render threads."""
-        import numba
+        from . import target
 
         return cls(flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
                    depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
-                   pass_seconds=pass_seconds, threads=numba.get_num_threads())
+                   pass_seconds=pass_seconds, threads=target.thread_count())
 
     def _load(self, chosen: KernelFeatures, notify) -> KernelTime:
         """The render pass of kernel `chosen`, compiled or loaded (and run once on one pixel)

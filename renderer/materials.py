@@ -24,7 +24,7 @@ The direction of each material is a function of its random inputs (`lambertian_d
 
 import math
 
-from numba import njit
+from . import target
 
 from .columns import Column, Layout
 from .kernel_flags import DIELECTRICS, EMITTERS, IMAGE
@@ -67,7 +67,7 @@ def phase_function(texture: int) -> tuple[list, list]:
     return MATERIAL_I.row(kind=ISOTROPIC, texture=texture), MATERIAL_F.row(fuzz=0.0, ior=1.0)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def random_unit_vector(key, dim):
     """Uniform on the sphere (Marsaglia 1972): a point in the unit disk lifted to the sphere.
 
@@ -87,12 +87,12 @@ def random_unit_vector(key, dim):
     return (r * math.cos(phi), r * math.sin(phi), z)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def reflect(v, n):
     return madd(v, n, -2.0 * dot(v, n))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def lambertian_direction(n_front, r):
     """The books' diffuse direction n + r for a uniform unit vector r: cosine-weighted about n.
 
@@ -104,7 +104,7 @@ def lambertian_direction(n_front, r):
     return out
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def metal_direction(d, n_front, fuzz, r):
     """The mirror direction of d moved by fuzz * r (r a uniform unit vector), never below the surface.
 
@@ -123,7 +123,7 @@ def metal_direction(d, n_front, fuzz, r):
     return out
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def fresnel_dielectric(cos_i, eta):
     """(reflectance, cosine of the refracted angle) at a smooth dielectric interface.
 
@@ -143,7 +143,7 @@ def fresnel_dielectric(cos_i, eta):
     return 0.5 * (rs * rs + rp * rp), cos_t
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def lambertian_value(n_front, wi):
     """f . cos of the lambertian lobe per unit albedo for a unit direction wi: cos / pi above the
     surface, 0 below. It is also the cosine sampler's density, so the two are one expression."""
@@ -154,7 +154,7 @@ def lambertian_value(n_front, wi):
 ISOTROPIC_DENSITY = 1.0 / (4.0 * math.pi)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def dielectric_direction(d, n_front, front_face, ior, u):
     """Reflected or refracted direction of d at a smooth dielectric, reflected with the Fresnel
     probability (u uniform in [0, 1) decides)."""
@@ -177,14 +177,14 @@ def dielectric_direction(d, n_front, front_face, ior, u):
 # images are unchanged bit for bit.
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def reads_uv(mat_i, mat):
     """Whether material row `mat` needs the hit's (u, v): only image textures read it, and on a
     sphere it costs an arc cosine and an arc tangent."""
     return IMAGE and mat_i[mat, MAT_READS_UV] != 0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def color_at(S, mat, u, v, p):
     """The colour of material row `mat` at a point of the flat scene S: its texture's value there,
     a surface's albedo or a light's emitted radiance. Evaluated once per hit and handed to
@@ -193,7 +193,7 @@ def color_at(S, mat, u, v, p):
     return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, p)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def emits(mat_i, mat):
     """Whether material row `mat` emits light (then `emitted` says how much). The path tracer
     ends a path at an emitter: the books' lights absorb all that reaches them (their
@@ -201,7 +201,7 @@ def emits(mat_i, mat):
     return EMITTERS and mat_i[mat, MAT_KIND] == DIFFUSE_LIGHT
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def emitted(mat_i, mat_f, mat, color, front_face):
     """Radiance that material row `mat` (one that `emits`) sends back along the ray that hit it.
 
@@ -211,7 +211,7 @@ def emitted(mat_i, mat_f, mat, color, front_face):
     return color
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
     """Scatter the ray of direction d that hit material row `mat` (colour `color` there, see
     `color_at`): (direction, weight, pdf, delta).
@@ -248,7 +248,7 @@ def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
     return zero, zero, 0.0, True
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def eval_bsdf(mat_i, mat_f, mat, color, d, n_front, wi):
     """f . cos of material row `mat` for light arriving from unit direction wi and leaving
     against d, as (tint, value) with f . cos = tint * value (see above); for a medium's
@@ -263,7 +263,7 @@ def eval_bsdf(mat_i, mat_f, mat, color, d, n_front, wi):
     return color, 0.0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def pdf_bsdf(mat_i, mat_f, mat, d, n_front, wi):
     """The density per solid angle with which `sample_bsdf` gives unit direction wi for a ray
     of direction d; 0 for a delta lobe."""
@@ -275,6 +275,6 @@ def pdf_bsdf(mat_i, mat_f, mat, d, n_front, wi):
     return 0.0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def is_zero(v):
     return v[0] == 0.0 and v[1] == 0.0 and v[2] == 0.0

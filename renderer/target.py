@@ -36,7 +36,6 @@ process, and puts it back: the only place the renderer changes Numba's configura
 
 from __future__ import annotations
 
-import threading
 from contextlib import contextmanager
 
 import numba
@@ -97,6 +96,11 @@ uint64 = numba.uint64
 # Threads a parallel kernel runs on: callable from Python and inside a kernel, before its loop.
 thread_count = numba.get_num_threads
 set_thread_count = numba.set_num_threads
+
+
+def max_thread_count() -> int:
+    """The most threads a parallel kernel can run on in this process (NUMBA_NUM_THREADS)."""
+    return numba.config.NUMBA_NUM_THREADS
 # Inside a parallel loop: the running thread's number, 0 .. thread_count() - 1.
 thread_index = numba.get_thread_id
 
@@ -106,8 +110,3 @@ def launch(kernel_function, *args):
     return kernel_function(*args)
 
 
-# TRANSITIONAL, until every module declares its functions here (tests/renderer/
-# test_kernel_target.py's NOT_YET_DECLARED_HERE is empty): the modules that still use
-# `numba.njit` read Numba's cache folder from the process's configuration, so it is set to the
-# general kernel's folder for the process, as before this module existed.
-jit_cache.configure()

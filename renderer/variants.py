@@ -172,11 +172,7 @@ def _kernel_module(features: KernelFeatures, name: str) -> types.ModuleType:
         if (tag, name) in _loaded:
             return _loaded[tag, name]
         package = _copies.get(tag) or _copy_package(features)
-        copy_target = importlib.import_module(f"{package}.target")
-        # TRANSITIONAL, like the end of target.py: the copy's modules that still declare with
-        # numba.njit read the process's cache folder, so it is the copy's while they are imported.
-        with copy_target.declaring():
-            module = importlib.import_module(f"{package}.kernels.{name}")
+        module = importlib.import_module(f"{package}.kernels.{name}")
         _loaded[tag, name] = module
         return module
 

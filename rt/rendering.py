@@ -44,10 +44,10 @@ def parse_duration(text: str) -> Optional[float]:
 
 
 def max_threads() -> int:
-    """The most render threads Numba can run in this process."""
-    import numba
+    """The most render threads this process can run."""
+    from renderer import target
 
-    return numba.config.NUMBA_NUM_THREADS
+    return target.max_thread_count()
 
 
 def option_problem(kernel: str, integrator: Optional[str], threads: Optional[int]) -> Optional[str]:
@@ -89,18 +89,17 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
     scene's; `film` continues a resumed render. A `Progress` given as `progress` draws its final
     figures and is closed. `options` are the session's: should_stop, time_budget, noise_target, notify.
     """
-    import numba
-
+    from renderer import target
     from renderer.film import Film
     from renderer.local_passes import LocalPasses
     from renderer.session import render_progressively
 
     from .progress import Progress
 
-    before = numba.get_num_threads()
+    before = target.thread_count()
     try:
         if threads is not None:
-            numba.set_num_threads(threads)
+            target.set_thread_count(threads)
         if connection is not None:
             from .cluster import cluster_executor
 
@@ -115,6 +114,6 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
             progress.finish(result.stats)
         return result
     finally:
-        numba.set_num_threads(before)
+        target.set_thread_count(before)
         if isinstance(progress, Progress):
             progress.close()

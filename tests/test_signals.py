@@ -332,7 +332,7 @@ def test_a_signal_before_the_first_pass_is_done_ends_at_once_with_nothing_saved(
 
 def general_kernel_only_cache(tmp_path):
     """A Numba cache folder holding the general kernel (compiled if need be) and no specialised one."""
-    from renderer.jit_cache import configure
+    from renderer.jit_cache import general_folder
 
     scene = tmp_path / "warm.yaml"
     scene.write_text(SMALL)
@@ -340,7 +340,7 @@ def general_kernel_only_cache(tmp_path):
                           cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert warm.returncode == 0, warm.stderr
     folder = tmp_path / "numba"
-    shutil.copytree(configure(), folder, ignore=lambda where, names: ["variants"] if "variants" in names else [])
+    shutil.copytree(general_folder(), folder, ignore=lambda where, names: ["variants"] if "variants" in names else [])
     assert list(folder.glob("rt-kernel-ready-all-*")), "the general kernel is not marked compiled"  # named per installation
     return folder
 

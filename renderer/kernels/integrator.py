@@ -2,7 +2,6 @@
 
 import math
 
-from numba import njit
 
 from .. import target
 from ..camera import camera_ray
@@ -25,7 +24,7 @@ ROULETTE_AFTER = 2
 SHADOW_MARGIN = 1e-7
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     """Radiance along one camera path, and the number of rays it cast (shadow rays included).
 

@@ -12,7 +12,7 @@ a case in `dispatch.py`.
 
 import math
 
-from numba import njit
+from .. import target
 
 from ..columns import Column, Layout
 
@@ -38,7 +38,7 @@ PRIM_KIND, PRIM_MATERIAL = PRIMITIVE_I.offsets("kind", "material")
 INF = math.inf
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def first_inside(t0, t1, tmin, tmax):
     """The first of the distances t0 <= t1 (where a ray enters and leaves a solid) in (tmin, tmax), or inf."""
     if tmin < t0 < tmax:

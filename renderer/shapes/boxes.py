@@ -10,7 +10,7 @@ measured once, by `area` when flattening.
 """
 
 import numpy as np
-from numba import njit
+from .. import target
 
 from scenefmt import affine
 
@@ -45,7 +45,7 @@ def area(prims_f: np.ndarray, rows: np.ndarray) -> np.ndarray:
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_box(data, i, o, d, inv, tmin, tmax):
     """Distance in (tmin, tmax) to the surface of axis-aligned box i (lo 0:3, hi 3:6), or inf.
 
@@ -70,7 +70,7 @@ def hit_box(data, i, o, d, inv, tmin, tmax):
     return first_inside(near, far, tmin, tmax)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def box_surface(data, i, p, d):
     """Hit point, outward unit normal and (0, 0) of a hit at p on box i, by a ray along d: the
     face nearest to p among those the ray is not parallel to (a ray lying in a face's plane
@@ -98,7 +98,7 @@ def box_surface(data, i, p, d):
     return (p[0], p[1], face), (0.0, 0.0, sign), 0.0, 0.0
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_box_surface(data, i, box_area, u1, u2):
     """A point uniform on the surface of box row i, its outward normal and the density per
     area, 1 / `box_area` (`area`)."""

@@ -2,7 +2,7 @@
 takes, and which family measures and samples an emitting row's surface."""
 
 import numpy as np
-from numba import njit
+from .. import target
 
 from scenefmt import affine
 
@@ -63,7 +63,7 @@ def surface_records(kind: np.ndarray, prim: np.ndarray, flat) -> tuple[np.ndarra
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_primitive(kind, data, i, o, d, inv, inv_a, tmin, tmax, time):
     """Distance to primitive i of a surface kind along the ray, or inf; `inv` is the inverse
     direction (see hit_box) and `inv_a` is 1 / (d . d)."""
@@ -74,7 +74,7 @@ def hit_primitive(kind, data, i, o, d, inv, inv_a, tmin, tmax, time):
     return hit_planar(kind, data, i, o, d, tmin, tmax)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def surface(kind, S, i, o, d, t, time, want_uv):
     """Hit point, unit outward normal and (u, v) of a hit at distance t on primitive row i of
     the flat scene S.
@@ -94,20 +94,20 @@ def surface(kind, S, i, o, d, t, time, want_uv):
     return p, n, u, v
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_material(prims_i, prim):
     """The material row of primitive row `prim` (a medium's: its phase function)."""
     return prims_i[prim, PRIM_MATERIAL]
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def is_volume(prims_i, prim):
     """Whether a hit on primitive row `prim` is a scattering event inside a medium rather than a
     point on a surface: it has no side, and the next ray starts at the point itself."""
     return MEDIA and prims_i[prim, PRIM_KIND] == MEDIUM
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def interaction(S, prim, o, d, t, time, want_uv):
     """Point, unit normal and (u, v) of the hit at distance t along o + t d on primitive row
     `prim` of the flat scene S, in the space of o and d.
@@ -122,7 +122,7 @@ def interaction(S, prim, o, d, t, time, want_uv):
     return surface(kind, S, prim, o, d, t, time, want_uv)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_surface(kind, data, i, area, eu, ev, corner, time, u1, u2):
     """A point uniform on the surface of primitive row i of kind `kind` (tree space) at `time`, its
     outward normal and the density per tree-space area; `area`, `eu`, `ev` and `corner` are the
@@ -136,7 +136,7 @@ def sample_surface(kind, data, i, area, eu, ev, corner, time, u1, u2):
     return sample_planar_surface(kind, data, i, eu, ev, area, u1, u2)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sampler_normal(kind, eu, ev):
     """Whether a hit on a row of kind `kind` may find another normal than `sample_surface` gives
     at the same point (a smooth mesh's triangle blends its vertices'), and if so the sampler's
@@ -146,7 +146,7 @@ def sampler_normal(kind, eu, ev):
     return False, (0.0, 0.0, 0.0)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def spawn_origin(p, o, n, d):
     """Origin of a ray leaving hit point p (reached by a ray from o) in direction d.
 

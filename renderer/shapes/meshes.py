@@ -25,7 +25,7 @@ import math
 from typing import NamedTuple, Optional
 
 import numpy as np
-from numba import njit
+from .. import target
 
 from scenefmt import affine
 
@@ -115,7 +115,7 @@ def area(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 NO_SHEAR = (0, 1, 2, 0.0, 0.0, 1.0)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def ray_shear(d):
     """The ray's frame for the watertight test: axes (kx, ky, kz), kz where |d| is largest and
     (kx, ky) ordered to keep the frame's handedness, and the shear (sx, sy, sz)."""
@@ -129,7 +129,7 @@ def ray_shear(d):
     return kx, ky, kz, d[kx] * sz, d[ky] * sz, sz
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def _edges(tri_i, verts_f, j, o, shear):
     """(U, V, W, T, det): the edge functions of triangle j in the ray's sheared frame (the
     barycentric weights of its corners 0, 1, 2, unnormalised) and the hit distance times det."""
@@ -153,7 +153,7 @@ def _edges(tri_i, verts_f, j, o, shear):
     return u, v, w, t_scaled, det
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_mesh_triangle(tri_i, verts_f, j, o, shear, tmin, tmax):
     """Distance in (tmin, tmax) to mesh triangle j along the ray, or inf (watertight: see above).
 
@@ -171,7 +171,7 @@ def hit_mesh_triangle(tri_i, verts_f, j, o, shear, tmin, tmax):
     return t
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def mesh_surface(tri_i, mesh_i, verts_f, verts_n, verts_uv, j, o, d, want_uv):
     """Hit point, unit normal and (u, v) of a hit of the ray (o, d) on mesh triangle j.
 
@@ -217,14 +217,14 @@ def mesh_surface(tri_i, mesh_i, verts_f, verts_n, verts_uv, j, o, d, want_uv):
     return p, n, tu, tv
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sampled_normal(eu, ev):
     """The flat normal of a triangle with edges eu, ev: the one its sampler gives (a smooth
     mesh's hit blends another, which the density must not use)."""
     return unit(cross(eu, ev))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_mesh_triangle(q, eu, ev, triangle_area, u1, u2):
     """A point uniform on the triangle of corner q and edges eu, ev, its flat normal and the
     density per area, 1 / `triangle_area`."""

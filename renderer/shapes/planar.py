@@ -15,7 +15,7 @@ spherical rectangle). lights.py chooses between the two.
 import math
 
 import numpy as np
-from numba import njit
+from .. import target
 
 from scenefmt import affine
 
@@ -133,7 +133,7 @@ def rectangular(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_planar(kind, data, i, o, d, tmin, tmax):
     nx, ny, nz = data[i, PLANAR_NORMAL], data[i, PLANAR_NORMAL + 1], data[i, PLANAR_NORMAL + 2]
     denom = nx * d[0] + ny * d[1] + nz * d[2]
@@ -166,7 +166,7 @@ def hit_planar(kind, data, i, o, d, tmin, tmax):
     return t
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def planar_surface(kind, data, i, p):
     """Unit normal and (u, v) of a hit at p on planar row i."""
     n = row3(data, i, PLANAR_NORMAL)
@@ -190,7 +190,7 @@ SMALL_RECTANGLE = 1e-3
 FAR_RECTANGLE = 0.5
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_planar_surface(kind, data, i, eu, ev, planar_area, u1, u2):
     """A point uniform on planar row i with edges eu, ev (`edges`), its normal and the density
     per area, 1 / `planar_area` (`area`)."""
@@ -208,7 +208,7 @@ def sample_planar_surface(kind, data, i, eu, ev, planar_area, u1, u2):
     return madd(madd(q, eu, a), ev, b), n, 1.0 / planar_area
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def rectangle_is_near(q, eu, ev, p):
     """Whether the rectangle (corner q, edges eu, ev) is near enough p to be sampled by the solid
     angle it subtends (FAR_RECTANGLE); the sampler and its density decide alike."""
@@ -222,7 +222,7 @@ def rectangle_is_near(q, eu, ev, p):
     return dist2 < (FAR_RECTANGLE * reach) ** 2
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def rectangle_frame(q, eu, ev, p):
     """The rectangle (corner q, perpendicular edges eu, ev) as seen from p: its unit axes x, y, z
     (z pointing away from p's side), the coordinates x0 <= x1, y0 <= y1 and z0 <= 0 of its
@@ -250,7 +250,7 @@ def rectangle_frame(q, eu, ev, p):
     return x, y, z, x0, x1, y0, y1, z0, solid, k, n0[2], n2[2]
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_rectangle(p, frame, u1, u2):
     """A point of the rectangle whose direction from p is uniform in the solid angle it subtends
     (the spherical rectangle of Urena, Fajardo and King, 2013): u1 picks the x at which a

@@ -14,7 +14,7 @@ direction uniform in the cone it subtends (`sample_cone`, density per solid angl
 import math
 
 import numpy as np
-from numba import njit
+from .. import target
 
 from scenefmt import affine
 
@@ -86,7 +86,7 @@ def flatten_run(centers: np.ndarray, radii: np.ndarray, m, lin, s):
 # --- the kernels ------------------------------------------------------------------------------
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sphere_center(kind, data, i, time):
     c = row3(data, i, SPHERE_CENTER)
     if MOTION and kind == MOVING_SPHERE:
@@ -94,7 +94,7 @@ def sphere_center(kind, data, i, time):
     return c
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def hit_sphere(c, r, o, d, inv_a, tmin, tmax):
     """Nearest root in (tmin, tmax) of |o + t d - c| = r, or inf; `inv_a` is 1 / (d . d).
 
@@ -123,7 +123,7 @@ def hit_sphere(c, r, o, d, inv_a, tmin, tmax):
     return first_inside(min(t0, t1), max(t0, t1), tmin, tmax)
 
 
-@njit(_nrt=False, cache=True, error_model="numpy")
+@target.device_noinline
 def sphere_uv(n_obj):
     """(u, v) of a unit outward normal: u around +y starting at -x, v from the bottom pole."""
     y = min(1.0, max(-1.0, -n_obj[1]))
@@ -132,7 +132,7 @@ def sphere_uv(n_obj):
     return phi / (2.0 * math.pi), theta / math.pi
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sphere_surface(kind, data, i, p, time, want_uv):
     """Hit point (moved onto the sphere), unit outward normal and (u, v) of a hit near p."""
     c = sphere_center(kind, data, i, time)
@@ -161,7 +161,7 @@ def sphere_surface(kind, data, i, p, time, want_uv):
 SMALL_CONE = 1e-4
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def frame_of(w):
     """Two unit vectors completing unit w to an orthonormal frame (Duff et al. 2017)."""
     sign = math.copysign(1.0, w[2])
@@ -170,7 +170,7 @@ def frame_of(w):
     return (1.0 + sign * w[0] * w[0] * a, sign * b, -sign * w[0]), (b, sign + w[1] * w[1] * a, -w[1])
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def uniform_sphere(u1, u2):
     z = 1.0 - 2.0 * u1
     r = math.sqrt(max(0.0, 1.0 - z * z))
@@ -178,7 +178,7 @@ def uniform_sphere(u1, u2):
     return (r * math.cos(phi), r * math.sin(phi), z)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_sphere_surface(kind, data, i, sphere_area, time, u1, u2):
     """A point uniform on the surface of sphere row i at `time`, its outward normal and the
     density per area, 1 / `sphere_area` (the row's `area`, measured when flattening)."""
@@ -188,7 +188,7 @@ def sample_sphere_surface(kind, data, i, sphere_area, time, u1, u2):
     return madd(c, n, r), n, 1.0 / sphere_area
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def cone_one_minus_cos(sin2_max):
     """1 - cos(theta_max) of a cone whose half-angle has squared sine sin2_max, without cancellation."""
     if sin2_max < SMALL_CONE:
@@ -196,7 +196,7 @@ def cone_one_minus_cos(sin2_max):
     return 1.0 - math.sqrt(max(0.0, 1.0 - sin2_max))
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def cone_from(p, c, r):
     """|p - c|^2, and whether p is outside the sphere (c, r) by enough for the cone it subtends
     to be sampled (from inside, or on it, only the surface can be)."""
@@ -205,14 +205,14 @@ def cone_from(p, c, r):
     return dist2, dist2 > r * r * (1.0 + 1e-9)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def cone_solid_angle(r, dist2):
     """The solid angle of the cone a sphere of radius r subtends from a point dist2 (squared)
     from its centre: `sample_cone`'s density is its inverse."""
     return 2.0 * math.pi * cone_one_minus_cos(r * r / dist2)
 
 
-@njit(forceinline=True, _nrt=False, cache=True, error_model="numpy")
+@target.device
 def sample_cone(p, c, r, dist2, u1, u2):
     """A point and outward normal on the sphere (c, r) seen from p outside it, whose direction from
     p is uniform in the cone the sphere subtends; and that cone's solid angle density.

@@ -17,27 +17,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("renderer", "rt", "scenefmt")
 
-# Modules that still declare compiled functions with numba.njit (and its private `_nrt` option):
-# the materials and lights helpers rewrite them while this seam is built, and the lead converts
-# them with one sed when they are merged (see target.py's end). Shrink this list to empty; the
-# test below fails for an entry that no longer needs to be here.
-NOT_YET_DECLARED_HERE = {
-    "renderer/materials.py",
-    "renderer/lights.py",
-    "renderer/environment.py",
-    "renderer/shapes/__init__.py",
-    "renderer/shapes/boxes.py",
-    "renderer/shapes/dispatch.py",
-    "renderer/shapes/meshes.py",
-    "renderer/shapes/planar.py",
-    "renderer/shapes/spheres.py",
-    "renderer/kernels/integrator.py",  # `trace` only
-}
 # The CPU's four-wide box test, written as LLVM vector code (see its docstring for why).
 VECTOR_CODE = "renderer/kernels/simd.py"
-# Modules that may import numba: the target itself; the cache's naming (Numba's version, the
-# processor it compiles for); the render loop's thread count (the session helper's render.py).
-IMPORTS_NUMBA = {"renderer/target.py", "renderer/jit_cache.py", "renderer/render.py", VECTOR_CODE} | NOT_YET_DECLARED_HERE
+# Modules that may import numba: the target itself, and the cache's naming (Numba's version, the
+# processor it compiles for).
+IMPORTS_NUMBA = {"renderer/target.py", "renderer/jit_cache.py", VECTOR_CODE}
 
 
 def sources():
@@ -71,7 +55,7 @@ def imports_numba(tree: ast.AST) -> bool:
 def test_every_compiled_function_is_declared_through_the_target_module():
     stray = {}
     for name, text in sources():
-        if name == "renderer/target.py" or name in NOT_YET_DECLARED_HERE:
+        if name == "renderer/target.py":
             continue
         found = numba_declarations(ast.parse(text))
         if name == VECTOR_CODE:
@@ -81,17 +65,10 @@ def test_every_compiled_function_is_declared_through_the_target_module():
     assert stray == {}, f"compiled functions declared outside renderer/target.py: {stray}"
 
 
-def test_the_list_of_modules_not_yet_converted_only_shrinks():
-    """Each entry still declares with numba.njit: once converted, it must leave the list."""
-    texts = dict(sources())
-    converted = sorted(name for name in NOT_YET_DECLARED_HERE if not numba_declarations(ast.parse(texts[name])))
-    assert converted == [], f"remove from NOT_YET_DECLARED_HERE (they declare through the target now): {converted}"
-
-
 def test_only_the_target_and_the_cache_import_numba():
-    """Inside the renderer: rt's commands may set the thread count for a whole process."""
+    """Inside the renderer, and in rt: thread counts, too, go through the target."""
     others = sorted(name for name, text in sources()
-                    if name.startswith("renderer/") and name not in IMPORTS_NUMBA and imports_numba(ast.parse(text)))
+                    if name.split("/")[0] in ("renderer", "rt") and name not in IMPORTS_NUMBA and imports_numba(ast.parse(text)))
     assert others == [], f"modules importing numba or llvmlite directly: {others}"
 
 
@@ -104,7 +81,7 @@ def test_numbas_private_option_and_llvm_code_each_have_one_module():
             private.add(name)
         if "llvmlite import ir" in text or "llvmlite.ir" in text or "numba.extending" in text:
             llvm.add(name)
-    assert private - NOT_YET_DECLARED_HERE == {"renderer/target.py"}
+    assert private == {"renderer/target.py"}
     assert llvm == {VECTOR_CODE}
 
 

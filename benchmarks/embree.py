@@ -14,7 +14,7 @@ of rays, half each:
 - random: origins uniform in the knot's bounding box (some inside the tube), directions uniform
   over the sphere: no coherence at all.
 
-Ours: `renderer.kernels.probe.closest_hits` (distance, primitive and instance per ray; numba
+Ours: `renderer.tracing.probe.closest_hits` (distance, primitive and instance per ray; numba
 prange over chunks of rays, float64, our four-wide tree), through the general kernel a render
 starts with. Embree: `embreex`, whose `EmbreeScene.run` loops over rays calling rtcIntersect1
 with the GIL released, so `--threads` Python threads each run it on chunks of rays (float32, as
@@ -112,7 +112,7 @@ def cosine_directions(normals, rng):
 
 def bounce_rays(flat, count: int, rng):
     """Second-bounce rays: camera rays that hit the knot, then a diffuse bounce off each hit."""
-    from renderer.kernels.probe import closest_hits, probe_rays
+    from renderer.tracing.probe import closest_hits, probe_rays
 
     side = int(math.ceil(math.sqrt(count * 5)))  # the knot covers about a third of the picture
     half = math.tan(math.radians(20.0))  # 40 degrees vertical field
@@ -146,7 +146,7 @@ def random_rays(vertices, count: int, rng):
 
 
 def run_ours(flat, origins, dirs):
-    from renderer.kernels.probe import closest_hits
+    from renderer.tracing.probe import closest_hits
 
     t, prim, _ = closest_hits(flat, origins, dirs, 0.0, 0.0)
     return t, prim
@@ -328,7 +328,7 @@ def main() -> None:
         from embreex import rtcore
     except ImportError:
         raise SystemExit("embreex is not installed: pip install -e '.[bench]'")
-    from renderer.kernels.probe import probe_rays
+    from renderer.tracing.probe import probe_rays
 
     numba.set_num_threads(args.threads)
     if args.sizes:

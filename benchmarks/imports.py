@@ -15,24 +15,25 @@ the design, so both kinds count, and the printout marks the function-level ones.
 A *circle* is a set of two or more modules each reachable from every other along arrows (a
 strongly connected component), or a module that imports itself.
 
-An arrow inside renderer/ is *upward* when it runs from a lower layer to a higher one:
+An arrow inside renderer/ is *upward* when it runs from a lower layer to a higher one. The layers,
+lowest first:
 
-- the floor is what every kernel and table may stand on and which stands on nothing of the
-  renderer's: `kernels/vec`, `kernels/rng`, `kernels/cdf`, `kernels/simd` (arithmetic, random
-  numbers, sampling tables, the four-wide box test), `columns` (table declarations), `config`
-  (tuning constants), and the two modules every compiled module reads before defining anything,
-  `kernel_flags` (which effects a kernel holds) and `jit_cache` (where Numba caches it). Any
-  arrow from a floor module to another renderer module is upward.
-- the categories are the modules that each own one kind of scene element, its rows and its
-  kernels: `shapes/*`, `materials`, `textures`, `media`, `camera`, `background`, `environment`,
-  `lights`. An arrow from a module in `kernels/` to a category is upward: `kernels/` holds the
-  floor that every category imports, so a module in it that imports a category (traversal,
-  shadow rays, the integrator, tiles: the tracing layer) makes the package both below and above
-  the categories. Once the tracing modules live in a package of their own, their arrows to the
-  categories run down and no longer count.
+0. the floor, what every kernel and table may stand on: the numerics (`numerics/vec`, `rng`,
+   `cdf`, `simd`: arithmetic, random numbers, sampling tables, the four-wide box test; before
+   issue 30 they sat in `kernels/`), `columns` (table declarations), `config` (tuning constants),
+   `kernel_flags`, `jit_cache`, `target` (how kernels are declared), `trees` (the instance and
+   tree tables) and `flat` (the flat scene's fields and the estimators' codes). Before issue 30
+   the whole `kernels/` folder counts here, since the categories stood on it for their vectors
+   and random numbers; its tracing modules then import the categories, and those arrows run up:
+   the folder was floor and roof at once.
+1. the categories, each owning one kind of scene element, its rows and its kernels: `shapes/*`,
+   `materials`, `textures`, `media`, `camera`, `background`, `environment`, `lights`.
+2. the tracing layer, `tracing/*`: traversal, shadow rays, the integrator, tiles, probes.
+3. everything else: flattening (`compile`), building trees (`bvh`), the render session and its executors,
+   kernel variants, film and state.
 
-The packages `renderer` and `renderer.kernels` count as floor too: Python runs a package's
-`__init__` before any module in it, and theirs import nothing but `jit_cache`.
+The packages' `__init__` modules count with their layer (Python runs a package's `__init__`
+before any module in it).
 """
 
 from __future__ import annotations
@@ -47,13 +48,24 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("scenefmt", "renderer", "rt")
 
 FLOOR = frozenset({
-    "renderer", "renderer.kernels", "renderer.kernels.vec", "renderer.kernels.rng", "renderer.kernels.cdf",
-    "renderer.kernels.simd", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache",
+    "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
+    "renderer.trees", "renderer.flat",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
     "renderer.background", "renderer.environment", "renderer.lights",
 })
+
+
+def layer(module: str) -> int:
+    """The layer of a renderer module (see the module's docstring): 0 floor .. 3 the rest."""
+    if module in FLOOR or module.split(".")[:2] in (["renderer", "numerics"], ["renderer", "kernels"]):
+        return 0
+    if module in CATEGORIES or module.startswith("renderer.shapes."):
+        return 1
+    if module.split(".")[:2] == ["renderer", "tracing"]:
+        return 2
+    return 3
 
 
 @dataclass(frozen=True)
@@ -213,11 +225,7 @@ def is_upward(arrow: Arrow) -> bool:
     source, target = arrow.source, arrow.target
     if not (source.startswith("renderer") and target.startswith("renderer")) or source == target:
         return False
-    if source in FLOOR:
-        return target not in FLOOR
-    in_kernels = source.startswith("renderer.kernels.")
-    to_category = target in CATEGORIES or target.startswith("renderer.shapes.")
-    return in_kernels and to_category
+    return layer(source) < layer(target)
 
 
 def main(argv=None) -> int:

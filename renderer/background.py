@@ -10,7 +10,7 @@ from scenefmt.scene import ImageBackground, SkyBackground
 from . import target
 from .columns import Column, Layout
 from .kernel_flags import SKY
-from .kernels.vec import unit
+from .numerics.vec import unit
 
 BACKGROUND_SOLID = 0
 BACKGROUND_SKY = 1
@@ -36,8 +36,8 @@ BG_KIND, BG_COLOR = SOLID_BACKGROUND.offsets("kind", "color")
 BG_BOTTOM, BG_TOP = SKY_BACKGROUND.offsets("bottom", "top")
 
 
-def flatten(graph) -> list[float]:
-    """The background row of a scene graph (an image's row is completed by environment.flatten)."""
+def background_row(graph) -> list[float]:
+    """The background row of a scene graph (an image's row is completed by environment.environment_tables)."""
     bg = graph.background
     if isinstance(bg, ImageBackground):
         return IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE))

@@ -13,7 +13,7 @@ from scenefmt import affine
 from . import target
 from .columns import Column, Layout
 from .kernel_flags import DEFOCUS, MOTION
-from .kernels.rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, uniform
+from .numerics.rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, uniform
 from .target import uint64
 
 CAMERA = Layout("camera", "float64", [
@@ -32,7 +32,7 @@ CAM_LENS_U, CAM_LENS_V, CAM_LENS_RADIUS = CAMERA.offsets("lens_u", "lens_v", "le
 CAM_OPEN, CAM_CLOSE = CAMERA.offsets("open", "close")
 
 
-def flatten(graph) -> list[float]:
+def camera_row(graph) -> list[float]:
     """The CAMERA row of a scene graph's camera, image size and shutter."""
     cam, image = graph.camera, graph.image
     width, height = image.width, image.pixel_height

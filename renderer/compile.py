@@ -23,12 +23,12 @@ from scenefmt.shapes import sphere_values
 from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
-from .kernels.traverse import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
 from .materials import MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
 from .textures import TextureTables
+from .trees import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
 
 
 class _Tree:
@@ -122,7 +122,7 @@ class _Walk:
         # A material without a colour (a dielectric) attenuates by 1: it still needs a texture
         # row, since the kernels look one up for every scattering material.
         texture = self.textures.add(slot) if slot is not None else self.textures.white()
-        return self._material_row(id(node), materials.flatten(node.model, texture))
+        return self._material_row(id(node), materials.material_rows(node.model, texture))
 
     def phase(self, medium: MediumNode) -> int:
         """The material row of the isotropic phase function that scatters inside a medium."""
@@ -140,7 +140,7 @@ class _Walk:
         """Append shape's rows (surface and medium) baked through m; False if it needs an instance."""
         mat = self.material(shape.material) if shape.material is not None else None
         if shape.kind == "mesh":
-            tree.meshes.append((meshes.flatten(shape.mesh, m, shape.model.smooth), mat))
+            tree.meshes.append((meshes.mesh_rows(shape.mesh, m, shape.model.smooth), mat))
             return True
         as_box = mat is not None and not self.textures.reads_uv(self.mat_i[mat][MAT_TEXTURE])
         surface = shape_rows(shape.model, m, self.similarity(m), self.shutter, as_box)
@@ -156,7 +156,7 @@ class _Walk:
             for kind, row, _, _ in bounds:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
-            kind, row = media.flatten(shape.interior.model.density, first, len(bounds), self.media_count)
+            kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
             self.media_count += 1
             lo = tuple(min(r[2][k] for r in bounds) for k in range(3))
             hi = tuple(max(r[3][k] for r in bounds) for k in range(3))
@@ -182,7 +182,7 @@ class _Walk:
 
     def plain_sphere(self, member) -> bool:
         """Whether member is a sphere with a material, no medium and a similarity transform: one
-        of a run that `spheres.flatten_run` flattens at once."""
+        of a run that `spheres.sphere_run_rows` flattens at once."""
         if type(member) is not ShapeNode or member.interior is not None or member.material is None or member.model.type != "sphere":
             return False
         m = member.transform
@@ -192,7 +192,7 @@ class _Walk:
 
     def add_spheres(self, tree: _Tree, centers: np.ndarray, radii: np.ndarray, material_rows: np.ndarray, m) -> None:
         """Add plain spheres baked through the similarity m, in their order, with a material row each."""
-        rows, lo, hi = spheres.flatten_run(centers, radii, m, *self.similarity(m))
+        rows, lo, hi = spheres.sphere_run_rows(centers, radii, m, *self.similarity(m))
         tree.add_block(SPHERE, material_rows, rows, lo, hi)
 
     def sphere_run(self, tree: _Tree, run: list) -> None:
@@ -378,14 +378,14 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         mat_i=mat_i,
         mat_f=_array(walk.mat_f, MATERIAL_F, np.float64),
         **walk.textures.arrays(),
-        camera=np.array(camera.flatten(walk.graph), np.float64),
-        background=np.array(background.flatten(walk.graph), np.float64),
+        camera=np.array(camera.camera_row(walk.graph), np.float64),
+        background=np.array(background.background_row(walk.graph), np.float64),
         **lights.no_lights(0, 0),
         **environment.no_environment(),
     )
-    env_tables, env_power = environment.flatten(flat, walk.graph)
+    env_tables, env_power = environment.environment_tables(flat, walk.graph)
     flat = flat._replace(**env_tables)
-    return flat._replace(**lights.flatten(flat, env_power))
+    return flat._replace(**lights.light_tables(flat, env_power))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:
@@ -413,4 +413,4 @@ def compile_scene(graph: SceneGraph, use_bvh: bool = True) -> FlatScene:
 
 def camera_values(graph: SceneGraph) -> list[float]:
     """The camera row the kernels read (camera.CAMERA)."""
-    return camera.flatten(graph)
+    return camera.camera_row(graph)

@@ -33,7 +33,7 @@ from . import target
 
 from .background import BACKGROUND_IMAGE, IMAGE_BACKGROUND
 from .columns import Column, Layout
-from .kernels.cdf import pmf_and_cdf, search_cdf
+from .numerics.cdf import pmf_and_cdf, search_cdf
 
 # A row's or texel's own probability is its cdf less the one before (no column of its own: on a
 # large map that column would be a fifth of the map's memory).
@@ -85,7 +85,7 @@ def scene_radius(flat) -> float:
     """Half the diagonal of the box around every instance (1 for an empty scene)."""
     if len(flat.tlas_f) == 0:
         return 1.0
-    from .kernels.traverse import TLAS_HI, TLAS_LO
+    from .trees import TLAS_HI, TLAS_LO
 
     size = flat.tlas_f[0, TLAS_HI:TLAS_HI + 3] - flat.tlas_f[0, TLAS_LO:TLAS_LO + 3]
     radius = 0.5 * float(np.linalg.norm(size))
@@ -98,9 +98,9 @@ def flux(flat, radiance: float) -> float:
     return math.pi * scene_radius(flat) ** 2 * radiance
 
 
-def flatten(flat, graph) -> tuple[dict[str, np.ndarray], float]:
+def environment_tables(flat, graph) -> tuple[dict[str, np.ndarray], float]:
     """The background row and environment tables of `flat`, and the map's radiance integrated
-    over the sphere (for lights.flatten); nothing and 0 for a background that is not an image."""
+    over the sphere (for lights.light_tables); nothing and 0 for a background that is not an image."""
     from scenefmt.scene import ImageBackground
 
     from .textures import load_image_texels

@@ -31,8 +31,8 @@ class FlatScene(NamedTuple):
     verts_uv: np.ndarray  # (Vt, 2) float64 texture coordinates of meshes that have them
     # Nodes of every bottom-level tree, four-wide (bvh.WideBvh); child and leaf offsets are absolute.
     nodes_f: np.ndarray  # (N, 24) the four child boxes, by coordinate (bvh.WideBvh)
-    nodes_i: np.ndarray  # kernels/traverse.NODE_I
-    # Instances (the top level) and the binary tree over them; kernels/traverse.py.
+    nodes_i: np.ndarray  # trees.NODE_I
+    # Instances (the top level) and the binary tree over them; tracing/traverse.py.
     inst_i: np.ndarray  # INSTANCE_I
     inst_f: np.ndarray  # INSTANCE_F
     tlas_f: np.ndarray  # TLAS_F
@@ -63,7 +63,7 @@ class FlatScene(NamedTuple):
 
 
 # The estimators (`image.integrator` in a scene file, `--integrator` on the command line), as the
-# kernels' render passes take them (kernels/integrator.trace).
+# kernels' render passes take them (tracing/integrator.trace).
 INTEGRATOR_PATH = 0
 INTEGRATOR_MIS = 1
 INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS}

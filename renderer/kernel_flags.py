@@ -6,7 +6,7 @@ Numba freezes module globals into the machine code as constants, and its dead-br
 drops `if FLAG and ...:` blocks whose FLAG is False before they are even type-checked. So a
 path behind a False flag costs neither time at render nor time at compile.
 
-This module, as shipped, turns every path on: `renderer.kernels` is the general kernel that
+This module, as shipped, turns every path on: `renderer.tracing` is the general kernel that
 renders any scene. `renderer.variants` loads further copies of this package with this module
 replaced by `values(...)` of that scene's flags (a flag is only ever off where the flat scene
 cannot reach that path, so the image is the same bit for bit).

@@ -13,7 +13,7 @@ Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
   world area is the tree-space density times the map's area ratio at that normal.
 - POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT: codes reserved. A new kind is a model, a module
   with its flattening and its two kernels (a sample and its density), and one case in
-  `sample_li`, `pdf_li` and `flatten` below; the integrator does not change.
+  `sample_li`, `pdf_li` and `light_tables` below; the integrator does not change.
 
 One selection step sees every light (`select_light`): one power distribution. The map, when
 there is one that sends light, is row 0 and is chosen with probability `choose`, its share of
@@ -50,15 +50,15 @@ from .background import BACKGROUND_IMAGE, BG_KIND, background
 from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS
-from .kernels.cdf import pmf_and_cdf, search_cdf
-from .kernels.traverse import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
-from .kernels.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
+from .numerics.cdf import pmf_and_cdf, search_cdf
+from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
 from .textures import texture_value
+from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 
 # Kinds of light (light_i.kind).
 ENVIRONMENT_LIGHT = 0  # the image background, at infinity (environment.py)
@@ -110,9 +110,9 @@ def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
             "prim_light": np.full(prims, -1, np.int32)}
 
 
-def flatten(flat, env_power: float) -> dict[str, np.ndarray]:
+def light_tables(flat, env_power: float) -> dict[str, np.ndarray]:
     """The light tables of flat scene `flat`, whose environment map (if any) sends the radiance
-    `env_power` integrated over the sphere (environment.flatten's): `light_i`, `light_f`,
+    `env_power` integrated over the sphere (environment.environment_tables's): `light_i`, `light_f`,
     `inst_light` (each instance's first area light row) and `prim_light` (an emitting
     primitive's rank among the emitters of its tree, -1 for others): the light of a hit is
     inst_light + prim_light (`light_of_hit`)."""

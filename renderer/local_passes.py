@@ -90,7 +90,7 @@ class LocalPasses:
 
     def __init__(self, flat: FlatScene, width: int, height: int, *, seed: int, depth: int, estimator: int,
                  pass_seconds: float, threads: int):
-        from .kernels.integrator import row_stride
+        from .tracing.integrator import row_stride
 
         self.flat = flat
         self.width, self.height = width, height

@@ -1,7 +1,7 @@
 """Materials: their table, their flattening, and what each answers the path tracer.
 
 Every material answers the same questions, in the spirit of pbrt's BxDF interface, and the
-integrator (`kernels/integrator.trace`) asks only these and names no material:
+integrator (`tracing/integrator.trace`) asks only these and names no material:
 
 - `color_at`: its texture's colour at a hit (the albedo, or a light's radiance), evaluated once;
 - `emits` / `emitted`: whether it emits, and the radiance it sends back along the ray;
@@ -14,7 +14,7 @@ integrator (`kernels/integrator.trace`) asks only these and names no material:
 Each dispatches by kind to the material's own functions below. Lambertian and isotropic have a
 density, so light sampling and MIS serve them; metal and dielectric are deltas; a diffuse
 light emits and absorbs. Adding a material means a model in `scenefmt/materials.py`, a type
-code, its parameters in `MATERIAL_F`, a case in `flatten` and a case in each of the functions
+code, its parameters in `MATERIAL_F`, a case in `material_rows` and a case in each of the functions
 above that it answers differently from "black, delta".
 
 The direction of each material is a function of its random inputs (`lambertian_direction`,
@@ -28,8 +28,8 @@ from . import target
 
 from .columns import Column, Layout
 from .kernel_flags import DIELECTRICS, EMITTERS, IMAGE
-from .kernels.rng import uniform
-from .kernels.vec import add, dot, madd, scale, unit
+from .numerics.rng import uniform
+from .numerics.vec import add, dot, madd, scale, unit
 from .textures import texture_value
 
 # Type codes.
@@ -54,7 +54,7 @@ MAT_KIND, MAT_TEXTURE, MAT_READS_UV = MATERIAL_I.offsets("kind", "texture", "rea
 MAT_FUZZ, MAT_IOR = MATERIAL_F.offsets("fuzz", "ior")
 
 
-def flatten(model, texture: int) -> tuple[list, list]:
+def material_rows(model, texture: int) -> tuple[list, list]:
     """The (MATERIAL_I, MATERIAL_F) rows of a material model whose texture is row `texture`
     (`reads_uv` is filled in once every texture is known, see compile.py)."""
     ints = MATERIAL_I.row(kind=CODES[model.type], texture=texture)

@@ -13,8 +13,8 @@ import math
 
 from . import target
 from .columns import Column, Layout
-from .kernels.rng import DIM_MEDIUM, mix64, uniform
-from .kernels.vec import dot, length, sub
+from .numerics.rng import DIM_MEDIUM, mix64, uniform
+from .numerics.vec import dot, length, sub
 from .shapes import INF, MEDIUM, MOVING_SPHERE, PRIM_WIDTH, SPHERE
 from .shapes.planar import hit_planar
 from .shapes.spheres import SPHERE_RADIUS, sphere_center
@@ -30,7 +30,7 @@ MEDIUM_NEG_INV_DENSITY, MEDIUM_FIRST_BOUNDARY, MEDIUM_BOUNDARIES, MEDIUM_SERIAL 
     "neg_inv_density", "first_boundary", "boundaries", "serial")
 
 
-def flatten(density: float, first_boundary: int, boundaries: int, serial: int) -> tuple[int, list]:
+def medium_row(density: float, first_boundary: int, boundaries: int, serial: int) -> tuple[int, list]:
     """(MEDIUM, row) of a medium of `density` bounded by boundary rows first_boundary onwards."""
     return MEDIUM, MEDIUM_F.row(neg_inv_density=-1.0 / density, first_boundary=first_boundary,
                                 boundaries=boundaries, serial=serial)

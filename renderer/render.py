@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable, Optional
 
-from .local_passes import PASS_SECONDS, Bands, LocalPasses
 from .film import Film
 from .flat import FlatScene, Frame
+from .local_passes import PASS_SECONDS, Bands, LocalPasses
 from .session import RenderResult, RenderStats, render_progressively
 from .variants import GENERAL, KernelFeatures, features_of
 

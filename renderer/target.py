@@ -89,7 +89,7 @@ kernel = _declarer(nogil=True)
 parallel_kernel = _declarer(parallel=True)
 
 prange = numba.prange
-# The unsigned integer type of the counter-based random numbers (kernels/rng.py).
+# The unsigned integer type of the counter-based random numbers (numerics/rng.py).
 uint64 = numba.uint64
 
 

@@ -11,7 +11,7 @@ in a folder of its flags' own: Numba keys cached code by source file and signatu
 globals, so copies sharing a folder would load each other's machine code.
 
 A `KernelSet` is what a render runs: `render_pass` (the progressive render's passes,
-kernels/integrator.py) and `render_tile` (the tiles a cluster's workers render, kernels/tile.py)
+tracing/integrator.py) and `render_tile` (the tiles a cluster's workers render, tracing/tile.py)
 of one feature set, each launched through the target.
 
 The flags come from the scene's effects (`scenefmt.effects.summarize`), the same analysis
@@ -37,7 +37,7 @@ from . import jit_cache, kernel_flags, target
 
 _RENDERER_DIR = Path(__file__).resolve().parent
 _copies: dict[str, str] = {}  # tag -> package name of the renderer's copy with those flags
-_loaded: dict[tuple[str, str], types.ModuleType] = {}  # (tag, module of kernels/) -> the module
+_loaded: dict[tuple[str, str], types.ModuleType] = {}  # (tag, module of tracing/) -> the module
 _lock = threading.Lock()
 
 
@@ -131,8 +131,8 @@ def _variant_cache_dir(tag: str) -> str:
     return jit_cache.folder_for(tag)
 
 
-# What a ready marker is about: the progressive render's kernel (kernels/integrator.py) or
-# the tile kernel of a cluster's workers (kernels/tile.py). Each is compiled on first use.
+# What a ready marker is about: the progressive render's kernel (tracing/integrator.py) or
+# the tile kernel of a cluster's workers (tracing/tile.py). Each is compiled on first use.
 KERNEL_KINDS = ("kernel", "tile")
 
 
@@ -166,13 +166,13 @@ def _kernel_module(features: KernelFeatures, name: str) -> types.ModuleType:
     """The module `kernels.<name>` of the renderer compiled for `features`: this package's own if
     every flag is on, else that of the copy with the scene's flags."""
     if features.is_general:
-        return importlib.import_module(f".kernels.{name}", __package__)
+        return importlib.import_module(f".tracing.{name}", __package__)
     tag = features.tag
     with _lock:
         if (tag, name) in _loaded:
             return _loaded[tag, name]
         package = _copies.get(tag) or _copy_package(features)
-        module = importlib.import_module(f"{package}.kernels.{name}")
+        module = importlib.import_module(f"{package}.tracing.{name}")
         _loaded[tag, name] = module
         return module
 
@@ -205,7 +205,7 @@ class KernelSet:
 
     def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
                     row_rays, row_bad, band_start, band_stop):
-        """kernels.integrator.render_pass of this feature set: samples added to the whole film's
+        """tracing.integrator.render_pass of this feature set: samples added to the whole film's
         sums, for the rows band_start..band_stop of the pass's row order (it allocates the
         threads' scratch and launches the parallel kernel `render_band`)."""
         return _kernel_module(self.features, "integrator").render_pass(S, width, height, seed, sample_start, sample_count,
@@ -214,7 +214,7 @@ class KernelSet:
 
     def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
                     row_rays, row_bad):
-        """kernels.tile.render_tile of this feature set: samples added to one tile's sums."""
+        """tracing.tile.render_tile of this feature set: samples added to one tile's sums."""
         return target.launch(_kernel_module(self.features, "tile").render_tile, S, width, x0, y0, seed, sample_start,
                              sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad)
 

@@ -5,7 +5,7 @@ How the work is cut, and why the image is the local render's bit for bit:
 - The image is cut into tiles (rectangles of pixels) and the samples into rounds (ranges of
   sample indices, the same for every tile). A chunk is one tile and one round.
 - A chunk does not return the sums of its own samples: it is given the tile's sums after the
-  previous round and continues them, sample index ascending, with `kernels.tile.render_tile`.
+  previous round and continues them, sample index ascending, with `tracing.tile.render_tile`.
   A pixel's sum is therefore built by exactly the additions, in exactly the order, of a local
   render (`integrator.render_pass` adds each pixel's samples in ascending order into the same
   sums, pass after pass): floating-point addition is not associative, and summing each range

@@ -95,3 +95,18 @@ def test_every_allowed_circle_still_exists(arrows):
     found = [set(c) for c in imports.circles(arrows)]
     stale = [sorted(allowed) for allowed in ALLOWED_CIRCLES if not any(c <= allowed for c in found)]
     assert not stale, f"these circles are gone: delete them from ALLOWED_CIRCLES in tests/test_imports.py: {stale}"
+
+
+def test_no_arrow_runs_up_the_renderers_layers(arrows):
+    """The floor (numerics, tables, target) imports nothing above it, the categories nothing of the
+    tracing layer, and neither anything of the session or flattening (benchmarks/imports.py
+    defines the layers)."""
+    up = [a for a in arrows if imports.is_upward(a)]
+    assert not up, f"imports that run up the renderer's layers:\n{shown(up)}"
+
+
+def test_the_layer_rule_sees_an_upward_arrow():
+    """A category importing the tracing layer, or the floor importing a category, counts as upward."""
+    assert imports.is_upward(imports.Arrow("renderer.lights", "renderer.tracing.traverse", 1, False))
+    assert imports.is_upward(imports.Arrow("renderer.numerics.vec", "renderer.materials", 1, False))
+    assert not imports.is_upward(imports.Arrow("renderer.tracing.integrator", "renderer.materials", 1, False))

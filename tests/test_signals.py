@@ -101,7 +101,7 @@ def small():
 
 def whole_image(small, samples):
     """Today's pass: the general kernel over every row at once, all samples in one call."""
-    from renderer.kernels.integrator import render_pass
+    from renderer.tracing.integrator import render_pass
 
     flat, frame, _ = small
     total, total_sq = np.zeros((frame.height, frame.width, 3)), np.zeros((frame.height, frame.width, 3))

@@ -24,7 +24,7 @@ BOX_F = Layout("prims_f box", "float64", [
 BOX_LO, BOX_HI = BOX_F.offsets("lo", "hi")
 
 
-def flatten(model, m):
+def box_row(model, m):
     """(BOX, row, lo, hi) of a box model that affine map m keeps axis-aligned and not flat, else None."""
     if any(m[r][c] != 0.0 for r in range(3) for c in range(3) if r != c):
         return None
@@ -77,7 +77,7 @@ def box_surface(data, i, p, d):
     meets the faces it crosses, see hit_box).
 
     The point is moved onto that face's plane, which removes the rounding of o + t d across
-    it. A box row is only made for materials that do not read (u, v) (see `flatten`).
+    it. A box row is only made for materials that do not read (u, v) (see `box_row`).
     """
     best, axis, side = INF, 0, 0
     for k in range(3):

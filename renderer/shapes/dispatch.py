@@ -8,7 +8,7 @@ from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
 from ..kernel_flags import MEDIA, MESHES
-from ..kernels.vec import dot, madd, max_abs
+from ..numerics.vec import dot, madd, max_abs
 from . import (BOX, DISK, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE, boxes, meshes,
                planar, spheres)
 from .boxes import box_surface, hit_box, sample_box_surface
@@ -26,12 +26,12 @@ def shape_rows(model, m, similarity, shutter: tuple[float, float], as_box: bool)
     """
     if model.type in ("sphere", "moving_sphere"):
         lin, s = similarity
-        return None if s is None else [spheres.flatten(model, m, lin, s, *shutter)]
+        return None if s is None else [spheres.sphere_row(model, m, lin, s, *shutter)]
     if model.type == "box" and as_box:
-        row = boxes.flatten(model, m)
+        row = boxes.box_row(model, m)
         if row is not None:
             return [row]
-    return planar.flatten(model, m)
+    return planar.planar_rows(model, m)
 
 
 def similarity_of(m) -> tuple:

@@ -30,7 +30,7 @@ from .. import target
 from scenefmt import affine
 
 from ..columns import Column, Layout
-from ..kernels.vec import cross, dot, madd, scale, sub, unit
+from ..numerics.vec import cross, dot, madd, scale, sub, unit
 from . import INF
 
 TRIANGLE_I = Layout("tri_i", "int32", [
@@ -76,7 +76,7 @@ def _unit_rows(n: np.ndarray, fallback) -> np.ndarray:
     return out
 
 
-def flatten(mesh, m, smooth: bool) -> MeshRows:
+def mesh_rows(mesh, m, smooth: bool) -> MeshRows:
     """The mesh data (scenefmt.meshfile.MeshData) baked through affine map m, all in numpy."""
     lin = np.array(affine.linear(m), np.float64)
     shift = np.array([row[3] for row in m], np.float64)

@@ -20,7 +20,7 @@ from .. import target
 from scenefmt import affine
 
 from ..columns import Column, Layout
-from ..kernels.vec import cross, dot, madd, max_abs, neg, row3, scale, sub, unit
+from ..numerics.vec import cross, dot, madd, max_abs, neg, row3, scale, sub, unit
 from . import DISK, INF, PRIM_WIDTH, QUAD, TRIANGLE
 
 # A ray this close to parallel with a plane misses it: the hit would be numerically meaningless.
@@ -62,7 +62,7 @@ def planar_row(q, u, v, flip: bool) -> list[float]:
                         alpha=affine.cross(v, w), beta=affine.cross(w, u))
 
 
-def flatten(model, m) -> list[tuple[int, list, tuple, tuple]]:
+def planar_rows(model, m) -> list[tuple[int, list, tuple, tuple]]:
     """(kind, row, lo, hi) of each planar row of a quad, triangle, disk or box model baked through m."""
     lin = affine.linear(m)
     flip = affine.determinant(lin) < 0

@@ -20,7 +20,7 @@ from scenefmt import affine
 
 from ..columns import Column, Layout
 from ..kernel_flags import MOTION
-from ..kernels.vec import dot, madd, row3, scale, sub
+from ..numerics.vec import dot, madd, row3, scale, sub
 from . import INF, MOVING_SPHERE, PRIM_WIDTH, SPHERE, first_inside
 
 _RADIUS = Column("radius", 1, "radius")
@@ -40,7 +40,7 @@ SPHERE_CENTER, SPHERE_RADIUS, SPHERE_ROTATION = SPHERE_F.offsets("center", "radi
 MOVING_VELOCITY, MOVING_ROTATION = MOVING_SPHERE_F.offsets("velocity", "rotation")
 
 
-def flatten(model, m, lin, s, shutter_open: float, shutter_close: float):
+def sphere_row(model, m, lin, s, shutter_open: float, shutter_close: float):
     """(kind, row, lo, hi) of a sphere or moving sphere model baked through affine map m, whose
     linear part `lin` is s times a rotation; lo and hi bound it over the shutter interval."""
     # The object_from_world rotation for the uv frame, (lin / s) transposed, row by row.
@@ -67,9 +67,9 @@ def area(prims_f: np.ndarray, rows: np.ndarray) -> np.ndarray:
     return 4.0 * math.pi * r * r
 
 
-def flatten_run(centers: np.ndarray, radii: np.ndarray, m, lin, s):
+def sphere_run_rows(centers: np.ndarray, radii: np.ndarray, m, lin, s):
     """Rows, lo and hi of many plain spheres (no motion) baked through the same affine map m: the
-    arrays `flatten` makes one sphere at a time, value for value (the same products and sums in the
+    arrays `sphere_row` makes one sphere at a time, value for value (the same products and sums in the
     same order), built in numpy. `centers` is (n, 3), `radii` (n,)."""
     rows = np.zeros((len(radii), PRIM_WIDTH))
     # Apply m to the centres as affine.apply_point does: ((m0 p0 + m1 p1) + m2 p2) + m3, row by row.

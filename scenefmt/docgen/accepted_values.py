@@ -16,7 +16,7 @@ from ..shapes import GroupSlot
 from ..textures import TextureSlot
 from ..transforms import Transform
 from .sections import Section, heading_title, slug
-from .walk import constraint, flatten, is_model, is_union
+from .walk import constraint, unwrap_annotated, is_model, is_union
 from .yaml_values import yaml_flow
 
 # How the named type aliases read to a human; the keys are the aliases themselves.
@@ -56,7 +56,7 @@ def _same(a: Any, b: Any) -> bool:
 def match_alias(base: Any, meta: list[Any]) -> str | None:
     """The human wording of a named alias when `base` + `meta` is (a use of) that alias."""
     for alias, wording in ALIAS_WORDING:
-        abase, ameta, _ = flatten(alias)
+        abase, ameta, _ = unwrap_annotated(alias)
         if _same(base, abase) and all(any(_same(m, x) for x in meta) for m in ameta):
             return wording
     return None
@@ -129,7 +129,7 @@ class Describer:
         return [self.model_link(m) for m in models]
 
     def describe(self, tp: Any, outer_meta: list[Any] | None = None, plural: bool = False) -> str:
-        base, meta, _ = flatten(tp)
+        base, meta, _ = unwrap_annotated(tp)
         meta = list(outer_meta or []) + meta
         wording = match_alias(base, meta)
         if wording is not None:
@@ -138,12 +138,12 @@ class Describer:
             args = [a for a in typing.get_args(base) if a is not type(None)]
             if len(args) == 1:
                 return self.describe(args[0], meta, plural)
-            models = [flatten(a)[0] for a in args if is_model(flatten(a)[0])]
+            models = [unwrap_annotated(a)[0] for a in args if is_model(unwrap_annotated(a)[0])]
             others: list[str] = []
             for a in args:
                 if typing.get_origin(a) is Literal:  # x, y, z or [x, y, z]: the values read as alternatives
                     others += [_literal(v) for v in typing.get_args(a)]
-                elif not is_model(flatten(a)[0]):
+                elif not is_model(unwrap_annotated(a)[0]):
                     others.append(self.describe(a, None, plural))
             if models:
                 others += self.models_wording(models, plural)

@@ -14,7 +14,7 @@ from ..writing import field_default
 from .accepted_values import Describer
 from .introduction import INTRODUCTION
 from .sections import build_sections, heading_title
-from .walk import constraint, flatten, required_type_models
+from .walk import constraint, unwrap_annotated, required_type_models
 from .yaml_values import plain, yaml_flow
 
 _EXAMPLE = re.compile(r"```yaml\n(.*?)```", re.S)
@@ -91,7 +91,7 @@ def render_reference() -> str:
     sections = build_sections()
     describer = Describer(sections)
     required = required_type_models(Scene)
-    name_max = constraint(flatten(Name)[1], "max_length")
+    name_max = constraint(unwrap_annotated(Name)[1], "max_length")
     from ..schema_export import BEYOND_THE_SCHEMA
 
     beyond = "\n".join(f"- {reason}" for reason in BEYOND_THE_SCHEMA.values())

@@ -14,7 +14,7 @@ from ..scene import Background, Scene
 from ..shapes import Group, Shape
 from ..textures import Texture
 from ..transforms import TransformStep
-from .walk import direct_models, flatten, union_models, walk_models
+from .walk import direct_models, unwrap_annotated, union_models, walk_models
 
 
 @dataclass(eq=False)
@@ -75,9 +75,9 @@ def build_sections() -> list[Section]:
     scene_fields = Scene.model_fields
     sections = [
         Section("Scene", [Scene], single=True),
-        Section("Camera", [flatten(scene_fields["camera"].annotation)[0]], single=True),
-        Section("Image", [flatten(scene_fields["image"].annotation)[0]], single=True),
-        Section("Shutter", [flatten(scene_fields["shutter"].annotation)[0]], single=True),
+        Section("Camera", [unwrap_annotated(scene_fields["camera"].annotation)[0]], single=True),
+        Section("Image", [unwrap_annotated(scene_fields["image"].annotation)[0]], single=True),
+        Section("Shutter", [unwrap_annotated(scene_fields["shutter"].annotation)[0]], single=True),
         Section(
             "Background",
             union_models(Background),

@@ -32,7 +32,7 @@ def _expand(meta: Iterable[Any]) -> tuple[list[Any], Any]:
     return out, discriminator
 
 
-def flatten(tp: Any) -> tuple[Any, list[Any], Any]:
+def unwrap_annotated(tp: Any) -> tuple[Any, list[Any], Any]:
     """`(base type, metadata, discriminator)` of a possibly `Annotated` type."""
     meta: list[Any] = []
     discriminator = None
@@ -65,12 +65,12 @@ def constraint(meta: list[Any], name: str) -> Any:
 
 def union_models(tp: Any) -> list[type[BaseModel]]:
     """The models of a (possibly Annotated, possibly one-member) union, in order."""
-    base, _, _ = flatten(tp)
+    base, _, _ = unwrap_annotated(tp)
     if is_model(base):
         return [base]
     out = []
     for arg in typing.get_args(base):
-        b, _, _ = flatten(arg)
+        b, _, _ = unwrap_annotated(arg)
         if is_model(b):
             out.append(b)
     return out
@@ -101,7 +101,7 @@ def walk_models(root: type[BaseModel] = Scene) -> list[type[BaseModel]]:
 
 def direct_models(tp: Any) -> list[type[BaseModel]]:
     """Models an annotation refers to directly (not through the fields of another model)."""
-    base, _, _ = flatten(tp)
+    base, _, _ = unwrap_annotated(tp)
     if is_model(base):
         return [base]
     out: list[type[BaseModel]] = []
@@ -113,7 +113,7 @@ def direct_models(tp: Any) -> list[type[BaseModel]]:
 
 def _unions(tp: Any, outer: Any = None) -> Iterable[tuple[list[type[BaseModel]], Any]]:
     """Each union (or one-member discriminated union) inside an annotation: its models and discriminator."""
-    base, _, disc = flatten(tp)
+    base, _, disc = unwrap_annotated(tp)
     disc = disc if disc is not None else outer
     if is_union(base) or (is_model(base) and disc is not None):
         yield union_models(base), disc

@@ -12,9 +12,10 @@ from numba import njit
 
 from renderer.camera import camera_ray
 from renderer.config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from renderer.kernels.shadow import transmittance
-from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene
-from renderer.kernels.vec import unit, xform_normal, xform_point, xform_vector
+from renderer.tracing.shadow import transmittance
+from renderer.tracing.traverse import intersect_scene
+from renderer.trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from renderer.numerics.vec import unit, xform_normal, xform_point, xform_vector
 from renderer.lights import (LIGHT_PRIMITIVE, light_of_hit, pdf_li, radiance_escaped, sample_li, sample_light_surface,
                              select_light, share_of)
 from renderer.shapes.planar import rectangle_frame
@@ -22,7 +23,7 @@ from renderer.shapes.spheres import sample_cone
 from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
-from renderer.kernels.rng import bounce_dim, light_dim, path_key, uniform
+from renderer.numerics.rng import bounce_dim, light_dim, path_key, uniform
 from renderer.materials import (MATERIAL_F, MATERIAL_I, emits, emitted, eval_bsdf, pdf_bsdf, random_unit_vector,
                                 sample_bsdf)
 from renderer.media import medium_hit

@@ -10,7 +10,7 @@ from tests import naive
 from scenefmt import models as m
 from scenefmt.graph import build_graph
 from renderer.compile import compile_scene
-from renderer.kernels.probe import probe_rays
+from renderer.tracing.probe import probe_rays
 
 N_RAYS = 4000
 MAT = m.Lambertian(albedo=(0.5, 0.5, 0.5))

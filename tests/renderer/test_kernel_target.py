@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("renderer", "rt", "scenefmt")
 
 # The CPU's four-wide box test, written as LLVM vector code (see its docstring for why).
-VECTOR_CODE = "renderer/kernels/simd.py"
+VECTOR_CODE = "renderer/numerics/simd.py"
 # Modules that may import numba: the target itself, and the cache's naming (Numba's version, the
 # processor it compiles for).
 IMPORTS_NUMBA = {"renderer/target.py", "renderer/jit_cache.py", VECTOR_CODE}
@@ -168,8 +168,8 @@ def _edge_case_rays(rng, n):
 def test_the_four_wide_box_test_equals_the_one_box_test_bit_for_bit():
     """The vector form (slab4), the plain lanes (slab4_lanes) and the one-box test (traverse.slab)."""
     from renderer import target
-    from renderer.kernels.simd import slab4, slab4_lanes
-    from renderer.kernels.traverse import inverse_direction, slab
+    from renderer.numerics.simd import slab4, slab4_lanes
+    from renderer.tracing.traverse import inverse_direction, slab
 
     @target.kernel
     def three_ways(rows, origins, dirs, tmin, tmax, use_inverse):

@@ -14,9 +14,9 @@ import math
 import numpy as np
 import pytest
 
-from renderer.compile import compile_scene, with_integrator, with_width
-from renderer.kernels.traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED
-from renderer.kernels.vec import xform_point
+from renderer.compile import compile_scene, with_integrator
+from renderer.trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED
+from renderer.numerics.vec import xform_point
 from renderer.lights import BY_RECTANGLE, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY
 from renderer.shapes.planar import PLANAR_CORNER, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near
 from renderer.render import render

@@ -1,7 +1,7 @@
 """The material interface (renderer/materials.py) and the integrator that only asks it.
 
 Every material answers `sample_bsdf` (direction, weight, pdf, delta), `eval_bsdf` (f . cos as
-tint x value) and `pdf_bsdf`, and `emits` / `emitted`; `kernels/integrator.trace` calls these
+tint x value) and `pdf_bsdf`, and `emits` / `emitted`; `tracing/integrator.trace` calls these
 and the shapes' `interaction`, and names no kind of either. These tests hold each material to
 that contract on many random inputs (fixed seeds): a sampler's pdf is its own `pdf_bsdf`, its
 weight is eval / pdf, its directions follow its pdf (chi-square, tests/renderer/stats.py), and
@@ -12,7 +12,6 @@ are light-sampled, so changing the set would change images.
 from __future__ import annotations
 
 import ast
-import math
 import re
 from pathlib import Path
 

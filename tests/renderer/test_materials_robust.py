@@ -21,7 +21,7 @@ from renderer.variants import GENERAL
 from renderer.compile import compile_scene
 from renderer.shapes.spheres import sphere_uv
 from renderer.materials import DIELECTRIC, LAMBERTIAN, fresnel_dielectric, lambertian_direction, metal_direction, reflect
-from renderer.kernels.probe import probe_rays
+from renderer.tracing.probe import probe_rays
 from renderer.textures import TEX_SOLID, perlin
 from renderer.render import render
 from renderer.textures import perlin_tables

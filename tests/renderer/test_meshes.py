@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene
-from renderer.kernels.probe import probe_rays
+from renderer.tracing.probe import probe_rays
 from renderer.render import render
 from renderer.shapes import MESH_TRIANGLE
 from renderer.variants import GENERAL

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from renderer.variants import GENERAL
 from renderer.compile import compile_scene
-from renderer.kernels.probe import probe_rays
+from renderer.tracing.probe import probe_rays
 from renderer.render import render
 from scenefmt import models as m
 from scenefmt.graph import build_graph

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene
-from renderer.kernels.probe import CLOSEST_HITS_CHUNK, closest_hits, probe_rays
+from renderer.tracing.probe import CLOSEST_HITS_CHUNK, closest_hits, probe_rays
 from scenefmt import meshgen
 from scenefmt import models as m
 from scenefmt.graph import build_graph

@@ -23,7 +23,7 @@ from numba import njit
 from renderer.compile import compile_scene
 from renderer.config import SPAWN_OFFSET
 from renderer.shapes.dispatch import spawn_origin
-from renderer.kernels.probe import probe_rays
+from renderer.tracing.probe import probe_rays
 from scenefmt import affine
 from scenefmt import models as m
 from scenefmt.graph import build_graph

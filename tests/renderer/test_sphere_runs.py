@@ -1,4 +1,4 @@
-"""Runs of plain spheres are flattened in numpy (shapes/spheres.flatten_run): the tables must be
+"""Runs of plain spheres are flattened in numpy (shapes/spheres.sphere_run_rows): the tables must be
 those of flattening one sphere at a time, value for value."""
 
 import numpy as np

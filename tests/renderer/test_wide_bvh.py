@@ -9,8 +9,8 @@ from numba import njit
 
 from renderer.bvh import SLOT_EMPTY, SLOT_INTERIOR, WIDTH, build_bvh, single_leaf, widen
 from renderer.config import BVH_STACK, BVH_WIDE_STACK
-from renderer.kernels.simd import slab4
-from renderer.kernels.traverse import inverse_direction, slab
+from renderer.numerics.simd import slab4
+from renderer.tracing.traverse import inverse_direction, slab
 
 # Renders or runs the compiled kernels (tests/conftest.py).
 pytestmark = pytest.mark.slow

@@ -9,11 +9,12 @@ from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import INSTANCES
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
+from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
-from .rng import bounce_dim, light_dim, path_key, uniform
+from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from .shadow import transmittance
-from .traverse import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, intersect_scene, traversal_scratch
-from .vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
+from .traverse import intersect_scene, traversal_scratch
 
 # Russian roulette starts after this many bounces: the first carry most of the light. Starting
 # after 2 rather than 3 gave 8 to 12% more efficiency (1 / (error^2 x time)) on the light-sampled

@@ -12,46 +12,20 @@ import math
 import numpy as np
 
 from .. import target
-from ..columns import Column, Layout
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import medium_hit
+from ..numerics.simd import slab4
+from ..numerics.vec import dot, xform_point, xform_vector
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
 from ..shapes.meshes import NO_SHEAR, hit_mesh_triangle, ray_shear
 from ..target import uint64
-from .simd import slab4
-from .vec import dot, xform_point, xform_vector
+from ..trees import (INST_OBJECT_FROM_WORLD, INST_ROOT, INST_SERIAL, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_AXIS, TLAS_COUNT,
+                     TLAS_HI, TLAS_LO, TLAS_NEXT, tree_prims)
 
 INF = math.inf
 
-# The top level: instances, and the binary tree over them (its leaves index instances directly).
-INSTANCE_I = Layout("inst_i", "int32", [
-    Column("root", 1, "root node of the instance's bottom-level tree in nodes_f and nodes_i"),
-    Column("untransformed", 1, "1 if the instance's transform is the identity (rays need no transforming)"),
-    Column("serial", 1, "the instance's number, independent of row order: keys the random numbers of its media"),
-])
-INSTANCE_F = Layout("inst_f", "float64", [
-    Column("world_from_object", 12, "3x4 row-major affine map"),
-    Column("object_from_world", 12, "its inverse"),
-])
-TLAS_F = Layout("tlas_f", "float64", [Column("lo", 3, "box corner"), Column("hi", 3, "box corner")])
-TLAS_I = Layout("tlas_i", "int32", [
-    Column("next", 1, "interior: the second child (the first is the next row); leaf: the first instance"),
-    Column("count", 1, "leaf: how many instances; 0 for an interior node"),
-    Column("axis", 1, "interior: the split axis, whose sign of the ray's direction picks the near child"),
-])
-# Bottom-level trees are four wide (bvh.WideBvh): a node's four child boxes are nodes_f's row,
-# laid out by coordinate for one vector test (simd.slab4); nodes_i says where each child leads.
-NODE_I = Layout("nodes_i", "int64", [
-    Column("child", 4, "per child: its node, or its first primitive row if its count is above 0"),
-    Column("count", 4, "per child: primitives in the leaf, 0 for an interior node, -1 for an empty slot"),
-])
-NODE_CHILD, NODE_COUNT = NODE_I.offsets("child", "count")
-INST_ROOT, INST_UNTRANSFORMED, INST_SERIAL = INSTANCE_I.offsets("root", "untransformed", "serial")
-INST_WORLD_FROM_OBJECT, INST_OBJECT_FROM_WORLD = INSTANCE_F.offsets("world_from_object", "object_from_world")
-TLAS_LO, TLAS_HI = TLAS_F.offsets("lo", "hi")
-TLAS_NEXT, TLAS_COUNT, TLAS_AXIS = TLAS_I.offsets("next", "count", "axis")
 # Stands in for 1/0 in slab tests: large enough to act as infinity, finite so 0 * it is 0, not NaN.
 BIG = 1e300
 
@@ -315,23 +289,3 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
             if t < best_t:
                 best_t, best_prim, best_inst = t, prim, inst
     return best_t, best_prim, best_inst
-
-
-@target.kernel
-def tree_prims(nodes_i, root):
-    """The rows of every primitive in the leaves of the wide tree at `root`, in row order (a tree
-    with surfaces and mesh triangles has two runs of rows, not one)."""
-    rows = []
-    stack = [root]
-    while len(stack) > 0:
-        node = stack.pop()
-        for c in range(4):
-            code, count = nodes_i[node, NODE_CHILD + c], nodes_i[node, NODE_COUNT + c]
-            if count > 0:
-                for prim in range(code, code + count):
-                    rows.append(prim)
-            elif count == 0:
-                stack.append(code)
-    out = np.array(rows, np.int64)
-    out.sort()
-    return out

@@ -14,13 +14,13 @@ import math
 from .. import target
 from ..kernel_flags import INSTANCES, MEDIA, MESHES
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
+from ..numerics.simd import slab4
+from ..numerics.vec import length, xform_point, xform_vector
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
 from ..shapes.dispatch import hit_primitive
 from ..shapes.meshes import hit_mesh_triangle
-from .simd import slab4
-from .traverse import (INF, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT,
-                       TLAS_NEXT, at, inverse_direction, ray_constants, slab)
-from .vec import length, xform_point, xform_vector
+from ..trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, NODE_CHILD, NODE_COUNT, TLAS_COUNT, TLAS_NEXT
+from .traverse import INF, at, inverse_direction, ray_constants, slab
 
 
 @target.device

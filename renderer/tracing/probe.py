@@ -6,11 +6,11 @@ import numpy as np
 
 from .. import target
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
+from ..numerics.vec import unit, xform_normal, xform_point, xform_vector
 from ..shapes import MEDIUM, PRIM_KIND
 from ..shapes.dispatch import surface
-from .traverse import (INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT, intersect_brute_force, intersect_scene,
-                       traversal_scratch)
-from .vec import unit, xform_normal, xform_point, xform_vector
+from ..trees import INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT
+from .traverse import intersect_brute_force, intersect_scene, traversal_scratch
 
 # Rays per task of `closest_hits`.
 CLOSEST_HITS_CHUNK = 4096

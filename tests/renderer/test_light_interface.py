@@ -35,7 +35,7 @@ from tests.renderer.stats import ALPHA, chi2_test, z_limit
 
 ROOT = Path(__file__).resolve().parents[2]
 SKY = ROOT / "scenes" / "sky.pfm"
-INTEGRATOR = ROOT / "renderer" / "kernels" / "integrator.py"
+INTEGRATOR = ROOT / "renderer" / "tracing" / "integrator.py"
 
 LAMP = "materials: {lamp: {type: diffuse_light, emit: [4, 3, 2]}, white: {type: lambertian, albedo: [0.8, 0.8, 0.8]}}\n"
 CAMERA = "camera: {look_from: [0, 0, 5], look_at: [0, 0, 0]}\nimage: {width: 8, aspect_ratio: 1}\n"

@@ -26,7 +26,7 @@ from tests.renderer.stats import ALPHA, chi2_test
 from tests.renderer.test_sampling import frame, grid_counts
 
 ROOT = Path(__file__).resolve().parents[2]
-INTEGRATOR = ROOT / "renderer" / "kernels" / "integrator.py"
+INTEGRATOR = ROOT / "renderer" / "tracing" / "integrator.py"
 
 N = 200_000
 SEED = 20251125

@@ -89,17 +89,17 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
     scene's; `film` continues a resumed render. A `Progress` given as `progress` draws its final
     figures and is closed. `options` are the session's: should_stop, time_budget, noise_target, notify.
     """
-    from renderer import target
+    from renderer import target as kernel_target
     from renderer.film import Film
     from renderer.local_passes import LocalPasses
     from renderer.session import render_progressively
 
     from .progress import Progress
 
-    before = target.thread_count()
+    before = kernel_target.thread_count()
     try:
         if threads is not None:
-            target.set_thread_count(threads)
+            kernel_target.set_thread_count(threads)
         if connection is not None:
             from .cluster import cluster_executor
 
@@ -114,6 +114,6 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
             progress.finish(result.stats)
         return result
     finally:
-        target.set_thread_count(before)
+        kernel_target.set_thread_count(before)
         if isinstance(progress, Progress):
             progress.close()

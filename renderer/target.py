@@ -79,10 +79,15 @@ def _declarer(**options):
 
 
 # Device functions are compiled without reference counting (`_nrt=False`): they never allocate,
-# and the atomic reference counts Numba otherwise puts around every array argument cost 4-5% of
-# a render's processor time (the Cornell box and the final scene, one thread, measured against
-# the same code with them). It is the one private Numba option the renderer uses, and it is
-# written here only: Numba has no public option that does the same.
+# and with it on Numba wraps every array argument of every device call in a call to its atomic
+# incref/decref, which its refcount pruner cannot remove here (the general kernel's machine code
+# went from about 400 calls to 2,700). Measured on 2 cores (issue 30): without `_nrt=False` the
+# Cornell box renders at 0.17x (general kernel) and 0.32x (specialised) of the speed with it,
+# the final scene at 0.26x (general), and one thread is as slow (0.17x). The public settings do
+# not help: the pruner already runs with every pattern on by default (NUMBA_LLVM_REFPRUNE_FLAGS
+# "all"), NUMBA_OPT=max still gives 0.15x, and Numba-IR inlining (`inline="always"`) instead of
+# LLVM's ran past 3.5 minutes and 12 GB compiling the general kernel (57 s before) and was stopped.
+# So this is the one private Numba option the renderer uses, written here only.
 device = _declarer(forceinline=True, _nrt=False)
 device_noinline = _declarer(_nrt=False)
 kernel = _declarer(nogil=True)

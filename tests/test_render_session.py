@@ -3,11 +3,9 @@
 The loop's rules (samples, time budget, noise target, stop requests, failures, the kernel switch,
 resume) are tested with a pure-numpy executor that adds constants, so they hold without Numba and
 whatever runs the samples. The slow tests check that `rt render`, `rt.render` and the local
-executor driven directly give the same film, bit for bit, and that the packages have no import
-circle.
+executor driven directly give the same film, bit for bit (import circles: tests/test_imports.py).
 """
 
-import ast
 import time
 from pathlib import Path
 
@@ -200,97 +198,7 @@ def test_the_kernel_choice():
         choose_kernel(GENERAL, "auto", NEEDED)
 
 
-# -- the packages' imports
-
-
-def _import_arrows(packages=("rt", "renderer")) -> dict:
-    """module -> the package modules it imports (at module level or in a function; imports under
-    `if TYPE_CHECKING:` are left out, since they never run)."""
-    modules = {}
-    for package in packages:
-        for path in (ROOT / package).rglob("*.py"):
-            parts = path.relative_to(ROOT).with_suffix("").parts
-            modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
-    arrows = {name: set() for name in modules}
-    for name, path in modules.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        type_only = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
-                     for n in ast.walk(node)}
-        here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
-        for node in ast.walk(tree):
-            if id(node) in type_only:
-                continue
-            if isinstance(node, ast.Import):
-                targets = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom):
-                base = node.module or ""
-                if node.level:
-                    base = ".".join(here[:len(here) - node.level + 1] + ([node.module] if node.module else []))
-                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
-            else:
-                continue
-            for target in targets:
-                while target and target not in modules:
-                    target = target.rpartition(".")[0]
-                if target and target != name:
-                    arrows[name].add(target)
-    return arrows
-
-
-def _circles(arrows: dict) -> list:
-    """The strongly connected groups of more than one module (Tarjan's algorithm, iterative)."""
-    index, low, stack, on_stack, found = {}, {}, [], set(), []
-    for root in arrows:
-        if root in index:
-            continue
-        work = [(root, iter(sorted(arrows[root])))]
-        index[root] = low[root] = len(index)
-        stack.append(root)
-        on_stack.add(root)
-        while work:
-            node, children = work[-1]
-            child = next(children, None)
-            if child is not None:
-                if child not in index:
-                    index[child] = low[child] = len(index)
-                    stack.append(child)
-                    on_stack.add(child)
-                    work.append((child, iter(sorted(arrows[child]))))
-                elif child in on_stack:
-                    low[node] = min(low[node], index[child])
-                continue
-            work.pop()
-            if work:
-                low[work[-1][0]] = min(low[work[-1][0]], low[node])
-            if low[node] == index[node]:
-                group = []
-                while True:
-                    member = stack.pop()
-                    on_stack.discard(member)
-                    group.append(member)
-                    if member == node:
-                        break
-                if len(group) > 1:
-                    found.append(sorted(group))
-    return found
-
-
-# The one circle left in renderer/: columns.declared_layouts imports every category, and the
-# categories import columns (issue 30's drift list; another branch removes it).
-KNOWN_CIRCLE_MEMBER = "renderer.columns"
-
-
-def test_no_import_circle_in_rt_or_through_the_render_session():
-    arrows = _import_arrows()
-    assert "rt.render_job" not in arrows["rt.chunks"]  # the workers import no command's module
-    circles = _circles(arrows)
-    session_side = {"renderer.session", "renderer.executor", "renderer.local_passes", "renderer.render"}
-    for group in circles:
-        assert not any(m == "rt" or m.startswith("rt.") for m in group), group
-        assert not session_side & set(group), group
-        assert KNOWN_CIRCLE_MEMBER in group, group
-    # The walk itself finds a circle when there is one.
-    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+# -- the process environment
 
 
 def test_import_rt_leaves_the_environment_alone():

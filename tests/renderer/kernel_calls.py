@@ -1,4 +1,6 @@
-"""Small @njit wrappers that run the renderer's own kernel routines many times, for tests.
+"""Small compiled wrappers that run the renderer's own kernel routines many times, for tests;
+declared through renderer/target.py, so that their cached code is kept with the renderer's and
+is compiled again whenever a renderer source changes.
 
 The kernels are inlined into the render loop; these loops call the very same functions with
 the renderer's counter-based random numbers (keys from `path_key`), so a test sees exactly the
@@ -8,7 +10,7 @@ draws a render makes.
 import math
 
 import numpy as np
-from numba import njit
+from renderer import target
 
 from renderer.camera import camera_ray
 from renderer.config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
@@ -30,7 +32,7 @@ from renderer.media import medium_hit
 from renderer.textures import texture_value
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def unit_vectors(seed, n, bounce):
     """n draws of `random_unit_vector` at bounce `bounce` of paths 0..n-1."""
     out = np.empty((n, 3))
@@ -47,7 +49,7 @@ def scatter_many(kind, fuzz, ior, d, normal, front, seed, n, bounce):
     return _scatter_many(mat_i, mat_f, np.asarray(d, np.float64), np.asarray(normal, np.float64), front, seed, n, bounce)
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _scatter_many(mat_i, mat_f, d, normal, front, seed, n, bounce):
     out = np.empty((n, 3))
     for k in range(n):
@@ -62,7 +64,7 @@ def material_rows(kind, fuzz=0.0, ior=1.0):
     return (np.array([MATERIAL_I.row(kind=kind)], np.int32), np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64))
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce):
     """`sample_bsdf` of material row 0 for each incoming direction d[k] on a surface with unit
     normal n_front[k] on the ray's side, paths 0..n-1: rows (direction 3, weight 3, pdf, delta,
@@ -84,7 +86,7 @@ def bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def bsdf_values(mat_i, mat_f, color, d, n_front, wi):
     """`eval_bsdf` and `pdf_bsdf` of material row 0 for each (d[k], n_front[k], wi[k]): rows
     (tint 3, value, pdf)."""
@@ -100,14 +102,14 @@ def bsdf_values(mat_i, mat_f, color, d, n_front, wi):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def emission_of(mat_i, mat_f, color, front):
     """(`emits`, `emitted`) of material row 0 whose texture has colour `color` at the hit."""
     e = emitted(mat_i, mat_f, 0, (color[0], color[1], color[2]), front)
     return emits(mat_i, 0), np.array([e[0], e[1], e[2]])
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def camera_rays(cam, seed, n):
     """Origin, direction and time of n camera rays through pixel (0, 0)."""
     o = np.empty((n, 3))
@@ -122,7 +124,7 @@ def camera_rays(cam, seed, n):
     return o, d, t
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def medium_distances(prims_f, bnd_i, bnd_f, seed, n):
     """Scattering distance along +z from the origin in medium row 0 for n paths (inf: passed through)."""
     out = np.empty(n)
@@ -132,7 +134,7 @@ def medium_distances(prims_f, bnd_i, bnd_f, seed, n):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def texture_at(flat, tex, uv, points):
     """Colour of texture row `tex` at each (u, v) and point."""
     out = np.empty((points.shape[0], 3))
@@ -147,13 +149,13 @@ def texture_at(flat, tex, uv, points):
 
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _stacks():
     return ((np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64)),
             np.empty((BVH_STACK, 2)))
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _hit(S, p, d, time, stack, tstack):
     """(prim, inst, point, unit normal) of the first surface along p + t d; prim -1 if none."""
     t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
@@ -170,7 +172,7 @@ def _hit(S, p, d, time, stack, tstack):
     return prim, inst, x, n
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def light_samples(S, p, time, seed, n):
     """n draws of `sample_li` from point p: rows (ok, direction 3, distance, pdf, emission 3,
     the pdf `pdf_li` gives the first surface along the direction, that surface's distance)."""
@@ -193,7 +195,7 @@ def light_samples(S, p, time, seed, n):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def light_pdf_along(S, p, dirs, time):
     """The light sampler's solid angle density from p in each direction of `dirs` (0 where no light is met first)."""
     out = np.zeros(dirs.shape[0])
@@ -207,7 +209,7 @@ def light_pdf_along(S, p, dirs, time):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def segment_transmittance(S, o, target, time):
     stack, tstack = _stacks()
     d = (target[0] - o[0], target[1] - o[1], target[2] - o[2])
@@ -217,7 +219,7 @@ def segment_transmittance(S, o, target, time):
 # --- the environment map ----------------------------------------------------------------------
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def environment_samples(S, seed, n):
     """n draws of `sample_environment`: rows (ok, direction 3, pdf, radiance 3, the pdf and the
     first radiance channel `environment_radiance` gives the drawn direction)."""
@@ -235,7 +237,7 @@ def environment_samples(S, seed, n):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def environment_lookup(S, dirs):
     """Rows (radiance 3, solid angle density) of the map along each direction of `dirs`."""
     out = np.zeros((dirs.shape[0], 4))
@@ -245,7 +247,7 @@ def environment_lookup(S, dirs):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def ray_transmittance(S, o, d, tmax, time):
     """`transmittance` along o + t d for t in (0, tmax); tmax may be inf (a shadow ray to the environment)."""
     stack, tstack = _stacks()
@@ -255,7 +257,7 @@ def ray_transmittance(S, o, d, tmax, time):
 # --- the light category's interface -----------------------------------------------------------
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def line_crossings(S, centre, radius, dirs, offsets):
     """How many times each of a family of lines crosses the scene's surfaces: line k runs along
     unit dirs[k] through centre + offsets[k] (a point of the disk of `radius` about the centre,
@@ -278,7 +280,7 @@ def line_crossings(S, centre, radius, dirs, offsets):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def surface_samples(S, light, us, time):
     """Rows (point 3, normal 3, density per area) of area light row `light`'s surface sampler
     (tree space) at each (u1, u2) of `us`."""
@@ -293,7 +295,7 @@ def surface_samples(S, light, us, time):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def li_and_pdf_li(S, p, time, seed, n, map_row):
     """n draws of `sample_li` from p, each beside the density `pdf_li` gives what it drew: rows
     (ok, distance, pdf, pdf_li, distance to the first surface along wi (inf: none), pdf of
@@ -320,7 +322,7 @@ def li_and_pdf_li(S, p, time, seed, n, map_row):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def selections(S, us):
     """For each u0 of `us`: the light row `select_light` chooses and the share it reports, and
     the share `share_of` gives that row."""
@@ -332,7 +334,7 @@ def selections(S, us):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def cone_samples(p, c, r, us):
     """Rows (point 3, normal 3, density) of `sample_cone` from p toward the sphere (c, r)."""
     out = np.zeros((us.shape[0], 7))
@@ -346,7 +348,7 @@ def cone_samples(p, c, r, us):
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def rectangle_solid_angle(q, eu, ev, p):
     """The solid angle `rectangle_frame` finds for the rectangle (q, eu, ev) seen from p."""
     return rectangle_frame((q[0], q[1], q[2]), (eu[0], eu[1], eu[2]), (ev[0], ev[1], ev[2]), (p[0], p[1], p[2]))[8]

@@ -18,7 +18,7 @@ from decimal import Decimal, getcontext
 
 import numpy as np
 import pytest
-from numba import njit
+from renderer import target
 
 from renderer.compile import compile_scene
 from renderer.config import SPAWN_OFFSET
@@ -211,7 +211,7 @@ SURFACES = {
 }
 
 
-@njit(cache=True, error_model="numpy")
+@target.kernel
 def _spawn_all(p, o, n, d, offset):
     out = np.empty_like(p)
     for k in range(p.shape[0]):

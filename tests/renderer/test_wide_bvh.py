@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from renderer import target
 
 from renderer.bvh import SLOT_EMPTY, SLOT_INTERIOR, WIDTH, build_bvh, single_leaf, widen
 from renderer.config import BVH_STACK, BVH_WIDE_STACK
@@ -90,7 +90,7 @@ def test_a_single_leaf_and_an_empty_tree_widen_to_one_node():
     assert list(empty.child[0, WIDTH:]) == [SLOT_EMPTY] * 4 and np.isnan(empty.box).all()
 
 
-@njit(cache=True)
+@target.kernel
 def _both(box_rows, o_all, d_all, tmin, tmax):
     """For each ray and each wide node: the vector answer and the scalar answer for its four boxes."""
     n_rays, n_nodes = o_all.shape[0], box_rows.shape[0]

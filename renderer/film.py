@@ -9,6 +9,7 @@ import secrets
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -156,17 +157,35 @@ def read_pfm(path: Path) -> np.ndarray:
     return np.frombuffer(parts[3], dtype=dtype, count=w * h * 3).reshape(h, w, 3)[::-1].astype(np.float64)
 
 
+@dataclass(frozen=True)
+class FileFormat:
+    """A kind of file a render writes, known by its suffix."""
+
+    suffix: str
+    role: str  # "image": 8-bit, for display (the image, a noise map); "hdr": linear float; "state": a resumable render
+    needs_exr: bool = False  # written with the optional OpenEXR library (scenefmt.hdr_files.exr_available)
+    write: Optional[Callable[[Path, np.ndarray], None]] = None  # an image's writer; a state is written by state.py
+
+
+# Every file format a render writes, in the order messages list them: the one place a suffix is
+# spelt (rt/outputs.py checks and names outputs from it, `write_image` writes by it).
+FILE_FORMATS = (
+    FileFormat(".png", "image", write=write_png),
+    FileFormat(".exr", "hdr", needs_exr=True, write=write_exr),
+    FileFormat(".pfm", "hdr", write=write_pfm),
+    FileFormat(".npz", "state"),
+)
+FORMAT_BY_SUFFIX = {f.suffix: f for f in FILE_FORMATS}
+
+
 def write_image(path: Path, linear: np.ndarray) -> None:
-    """PNG, PFM or OpenEXR by the file's suffix."""
+    """The image as the format its file's suffix names (FILE_FORMATS): PNG, OpenEXR or PFM."""
     suffix = Path(path).suffix.lower()
-    if suffix == ".pfm":
-        write_pfm(path, linear)
-    elif suffix == ".exr":
-        write_exr(path, linear)
-    elif suffix == ".png":
-        write_png(path, linear)
-    else:
-        raise ValueError(f"unsupported image format {suffix!r}: use .png, .pfm or .exr")
+    found = FORMAT_BY_SUFFIX.get(suffix)
+    if found is None or found.write is None:
+        images = [f.suffix for f in FILE_FORMATS if f.write is not None]
+        raise ValueError(f"unsupported image format {suffix!r}: use {', '.join(images[:-1])} or {images[-1]}")
+    found.write(path, linear)
 
 
 @dataclass

@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import os
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Optional
+
+from renderer.film import FILE_FORMATS, FORMAT_BY_SUFFIX, FileFormat
 
 if TYPE_CHECKING:
     from renderer.film import Film, NoiseEstimate
@@ -29,25 +30,15 @@ if TYPE_CHECKING:
     from .render_job import RenderOptions
 
 
-@dataclass(frozen=True)
-class Format:
-    """A kind of file `rt render` and `Image.save` write, known by its suffix."""
-
-    suffix: str
-    role: str  # "image": 8-bit, for display (the image, --noise-map); "hdr": linear float (--hdr); "state": --save-state
-    needs_exr: bool = False  # written with the optional OpenEXR library (scenefmt.hdr_files.exr_available)
-
-
-# Every output format, in the order messages list them. The one place a suffix is spelt.
-FORMATS = (
-    Format(".png", "image"),
-    Format(".exr", "hdr", needs_exr=True),
-    Format(".pfm", "hdr"),
-    Format(".npz", "state"),
-)
-BY_SUFFIX = {f.suffix: f for f in FORMATS}
-PNG, PFM, STATE = ".png", ".pfm", ".npz"  # the image, the rescued image and the rescued state
-assert all(suffix in BY_SUFFIX for suffix in (PNG, PFM, STATE))
+# Every output format (renderer/film.py's table, the one place a suffix is spelt), in the order
+# messages list them.
+FORMATS = FILE_FORMATS
+BY_SUFFIX = FORMAT_BY_SUFFIX
+# The image's format, the one a rescued image is written in (needs no optional library) and the
+# state's.
+PNG = next(f.suffix for f in FORMATS if f.role == "image")
+PFM = next(f.suffix for f in FORMATS if f.role == "hdr" and not f.needs_exr)
+STATE = next(f.suffix for f in FORMATS if f.role == "state")
 
 
 def suffixes_of(role: str) -> tuple[str, ...]:
@@ -55,7 +46,7 @@ def suffixes_of(role: str) -> tuple[str, ...]:
     return tuple(f.suffix for f in FORMATS if f.role == role)
 
 
-def format_of(path) -> Optional[Format]:
+def format_of(path) -> Optional[FileFormat]:
     """The format a file name asks for by its suffix (any case); None for none of ours."""
     return BY_SUFFIX.get(Path(path).suffix.lower())
 

@@ -44,11 +44,15 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--before", type=Path, required=True, help="the old checkout (with its own .venv)")
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--scene", action="append", help="only these scenes (cornell_box, final_scene)")
+    parser.add_argument("--kernel", action="append", choices=("general", "specialised"), help="only these kernels")
     args = parser.parse_args()
     sides = {"old": args.before.resolve(), "new": ROOT}
     with tempfile.TemporaryDirectory() as tmp:
         for scene, width, spp, depth in SCENES:
-            for kernel in ("general", "specialised"):
+            if args.scene and scene not in args.scene:
+                continue
+            for kernel in args.kernel or ("general", "specialised"):
                 for side in sides.values():  # warm-up: compile or load each side's kernel once
                     run(side, scene, width, 8, depth, kernel, Path(tmp) / "warm.png")
                 rates = {"old": [], "new": []}

@@ -107,9 +107,12 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
-            tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, wi)
-            density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, wi)
-            if ok and f > 0.0 and light > 0.0:
+            if ok and light > 0.0:
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, wi)
+            else:
+                tint, f = (0.0, 0.0, 0.0), 0.0
+            if f > 0.0:
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.

@@ -159,13 +159,13 @@ def test_compiling_is_not_rendering_time(small, monkeypatch):
     flat, frame, needed = small
     from renderer.variants import GENERAL
 
-    real = executor_module.kernels_for
+    real = executor_module.kernel_set
 
-    def slow_kernels_for(features):  # the general kernel, whatever is asked: no real compile
+    def slow_kernel_set(features):  # the general kernel, whatever is asked: no real compile
         time.sleep(1.0)
         return real(GENERAL)
 
-    monkeypatch.setattr(executor_module, "kernels_for", slow_kernels_for)
+    monkeypatch.setattr(executor_module, "kernel_set", slow_kernel_set)
     monkeypatch.setattr(session_module, "first_kernel", lambda needed, choice: GENERAL)
     monkeypatch.setattr(executor_module, "is_compiled", lambda features: False)
     monkeypatch.setattr(executor_module, "mark_compiled", lambda features: None)  # nothing was compiled
@@ -268,6 +268,18 @@ def test_ctrl_c_mid_pass_stops_within_seconds_and_the_state_resumes(tmp_path):
 @pytest.mark.slow
 def test_sigterm_mid_pass_saves_what_is_rendered_and_exits_143(tmp_path):
     stop_one_signal_mid_pass(tmp_path, signal.SIGTERM, 143, "SIGTERM")
+    # What was saved is the rendered pass itself: the whole 1000-pixel-wide image, lit (the knot's
+    # lamp), and a state whose sums are finite and positive, not zeros written in a hurry.
+    from PIL import Image
+
+    with Image.open(tmp_path / "out.png") as png:
+        pixels = np.asarray(png.convert("RGB"), np.float64)
+    assert pixels.shape[1] == 1000
+    assert pixels.mean() > 5.0, pixels.mean()
+    with np.load(tmp_path / "run.npz") as state:
+        sums = [state[name] for name in state.files if name != "meta" and state[name].dtype.kind == "f"]
+    assert sums and all(np.isfinite(a).all() for a in sums)
+    assert max(float(a.sum()) for a in sums) > 0.0
 
 
 @pytest.mark.slow

@@ -14,7 +14,7 @@ from .executor import KernelTime, Plan, Step
 from .film import Film
 from .flat import FlatScene
 from .jit_cache import general_folder as kernel_cache_folder
-from .variants import KernelFeatures, is_compiled, kernels_for, mark_compiled
+from .variants import KernelFeatures, is_compiled, kernel_set, mark_compiled
 
 # The first band of a render, before its speed is known, in rows per render thread: small, so
 # that a stop right after the start waits little, and enough to give every thread rows.
@@ -123,7 +123,7 @@ class LocalPasses:
             notify(f"compiling the renderer's {chosen.tag!r} kernel: 8 to 30 seconds on 2 cores, once; cached in "
                    f"{kernel_cache_folder()}")
         t0 = time.perf_counter()
-        chosen_pass = kernels_for(chosen).render_pass
+        chosen_pass = kernel_set(chosen).render_pass
         chosen_pass(self.flat, 1, 1, self.seed, 0, 0, self.depth, self.estimator, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)),
                     self.row_rays[:1], self.row_bad[:1], 0, 1)
         spent = time.perf_counter() - t0

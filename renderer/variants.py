@@ -230,11 +230,3 @@ def kernel_set(features: KernelFeatures) -> KernelSet:
     return found
 
 
-def kernels_for(features: KernelFeatures) -> KernelSet:
-    """The kernels compiled for `features`: `kernel_set` under its older name."""
-    return kernel_set(features)
-
-
-def tile_kernel_for(features: KernelFeatures):
-    """The tile kernel of a cluster's workers compiled for `features` (`KernelSet.render_tile`)."""
-    return kernel_set(features).render_tile

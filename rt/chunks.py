@@ -147,9 +147,9 @@ def warm_tile_kernel(flat, features):
     """The tile kernel for `features` (a variants.KernelFeatures), compiled or loaded from the disk
     cache and run once (one pixel, no samples) so that it is ready; marked compiled for the next
     render's message."""
-    from renderer.variants import mark_compiled, tile_kernel_for
+    from renderer.variants import kernel_set, mark_compiled
 
-    kernel = tile_kernel_for(features)
+    kernel = kernel_set(features).render_tile
     kernel(flat, 1, 0, 0, 0, 0, 0, 1, 1, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), np.zeros(1, np.int64), np.zeros(1, np.int64))
     mark_compiled(features, "tile")
     return kernel

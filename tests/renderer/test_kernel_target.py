@@ -263,13 +263,13 @@ def test_a_specialised_kernel_set_renders_the_general_kernels_film_and_its_tiles
     kernel leaves Numba's process-wide cache folder as it was."""
     import numba
 
-    from renderer.variants import GENERAL, kernel_set, kernels_for, tile_kernel_for
+    from renderer.variants import GENERAL, kernel_set
 
     flat, needed = _flat()
     assert not needed.is_general and needed.tag == "none"
     general = _film_of_pass(kernel_set(GENERAL), flat)
     folder = numba.config.CACHE_DIR
-    special = _film_of_pass(kernels_for(needed), flat)
+    special = _film_of_pass(kernel_set(needed), flat)
     assert numba.config.CACHE_DIR == folder
     assert general[0].sum() > 0
     assert np.array_equal(general[0], special[0]) and np.array_equal(general[1], special[1])
@@ -277,6 +277,6 @@ def test_a_specialised_kernel_set_renders_the_general_kernels_film_and_its_tiles
     total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
     for x0, width in ((0, 5), (5, 7)):
         t, tsq = np.zeros((8, width, 3)), np.zeros((8, width, 3))
-        tile_kernel_for(needed)(flat, 12, x0, 0, 3, 0, 4, 6, 1, t, tsq, np.zeros(8, np.int64), np.zeros(8, np.int64))
+        kernel_set(needed).render_tile(flat, 12, x0, 0, 3, 0, 4, 6, 1, t, tsq, np.zeros(8, np.int64), np.zeros(8, np.int64))
         total[:, x0:x0 + width], total_sq[:, x0:x0 + width] = t, tsq
     assert np.array_equal(total, general[0]) and np.array_equal(total_sq, general[1])

@@ -9,7 +9,7 @@ import pytest
 
 from renderer.compile import compile_scene, with_width
 from renderer.render import render
-from renderer.variants import GENERAL, KernelFeatures, _variant_cache_dir, features_of, is_compiled, kernels_for
+from renderer.variants import GENERAL, KernelFeatures, _variant_cache_dir, features_of, is_compiled, kernel_set
 from scenefmt.effects import summarize
 from scenefmt.validation import load, loads
 
@@ -155,7 +155,7 @@ def test_a_path_left_out_is_really_gone():
     for name, feats in (("without", no_media), ("with", GENERAL)):
         total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
         rays, bad = np.zeros(8, np.int64), np.zeros(8, np.int64)
-        kernels_for(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, 1, total, total_sq, rays, bad, 0, 8)
+        kernel_set(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, 1, total, total_sq, rays, bad, 0, 8)
         images[name] = total
     assert not np.array_equal(images["without"], images["with"])
 

@@ -61,7 +61,7 @@ def layer(module: str) -> int:
     """The layer of a renderer module (see the module's docstring): 0 floor .. 3 the rest."""
     if module in FLOOR or module.split(".")[:2] in (["renderer", "numerics"], ["renderer", "kernels"]):
         return 0
-    if module in CATEGORIES or module.startswith("renderer.shapes."):
+    if module in CATEGORIES or module.startswith(("renderer.shapes.", "renderer.materials.")):
         return 1
     if module.split(".")[:2] == ["renderer", "tracing"]:
         return 2

@@ -1,0 +1,37 @@
+"""Materials: their table, their flattening, and what each answers the path tracer.
+
+Every material answers the same questions, in the spirit of pbrt's BxDF interface, and the
+integrator (`tracing/integrator.trace`) asks only these and names no material:
+
+- `color_at`: its texture's colour at a hit (the albedo, or a light's radiance), evaluated once;
+- `emits` / `emitted`: whether it emits, and the radiance it sends back along the ray;
+- `sample_bsdf`: a scattered direction, the throughput weight f . cos / pdf, the density per
+  solid angle, and whether the lobe is a delta (no density: never light-sampled);
+- `eval_bsdf`: f . cos for a given pair of directions, as colour times number;
+- `pdf_bsdf`: the density `sample_bsdf` gives a direction, for multiple importance sampling;
+- `reads_uv`: whether the hit's (u, v) is needed at all.
+
+Each dispatches by kind to the material's own functions below. Lambertian and isotropic have a
+density, so light sampling and MIS serve them; metal and dielectric are deltas; a diffuse
+light emits and absorbs. Adding a material means a model in `scenefmt/materials.py`, a type
+code, its parameters in `MATERIAL_F`, a case in `material_rows` and a case in each of the functions
+above that it answers differently from "black, delta".
+
+The direction of each material is a function of its random inputs (`lambertian_direction`,
+`metal_direction`, `dielectric_direction`), so tests can check each on chosen inputs;
+`sample_bsdf` draws those inputs.
+"""
+
+from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
+                    metal_direction, random_unit_vector, reflect)
+from .dispatch import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from .fresnel import fresnel_dielectric
+from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
+                    MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
+
+__all__ = [
+    "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_FUZZ", "MAT_IOR", "MAT_KIND",
+    "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
+    "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
+    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf",
+]

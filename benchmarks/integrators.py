@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -96,69 +95,12 @@ def equal_time(graph, integrator: str, seconds: float, kernel: str = "general"):
 def mitsuba_cornell(width: int, seconds: float):
     """Mitsuba 3's path tracer on the Cornell box for `seconds` of wall time: (image, spp, seconds, variant)."""
     import mitsuba as mi
+    from mitsuba_scene import render_passes, scene_dict, set_variant
 
-    variant = "llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb"
-    mi.set_variant(variant)
-    graph = load_graph("cornell_box", width)
-    cam = graph.camera
-
-    def affine4(m) -> list:
-        return [list(row) for row in m] + [[0.0, 0.0, 0.0, 1.0]]
-
-    def material(node):
-        model = node.model
-        if model.type == "diffuse_light":
-            return "emitter", {"type": "area", "radiance": {"type": "rgb", "value": list(model.emit)}}
-        # Our surfaces scatter on both sides; Mitsuba's diffuse BSDF only on the front.
-        return "bsdf", {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(model.albedo)}}}
-
-    objects = {}
-    for k, member in enumerate(graph.root.members):
-        model = member.model
-        slot, value = material(member.material)
-        if model.type == "quad":
-            q, u, v = (np.array(x, float) for x in (model.q, model.u, model.v))
-            if slot == "emitter" and np.cross(u, v)[1] > 0:
-                u, v = v, u  # one-sided in Mitsuba: face it the way the lamp shines, down into the box
-            n = np.cross(u, v)
-            # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
-            m = np.eye(4)
-            m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), q + u / 2 + v / 2
-            shape = {"type": "rectangle", "to_world": mi.ScalarTransform4f((np.array(affine4(member.transform)) @ m).tolist())}
-        elif model.type == "box":
-            lo, hi = np.array(model.min, float), np.array(model.max, float)
-            m = np.eye(4)
-            m[:3, :3] = np.diag((hi - lo) / 2)
-            m[:3, 3] = (hi + lo) / 2
-            shape = {"type": "cube", "to_world": mi.ScalarTransform4f((np.array(affine4(member.transform)) @ m).tolist())}
-        else:
-            raise ValueError(f"the Mitsuba comparison does not convert {model.type}")
-        shape[slot] = value
-        objects[f"s{k}"] = shape
-    image = graph.image
-    definition = {
-        "type": "scene",
-        # Mitsuba counts the camera ray's hit as depth 1 and the emitter hit after max_depth - 1 bounces.
-        "integrator": {"type": "path", "max_depth": image.max_depth + 1},
-        "sensor": {
-            "type": "perspective", "fov": cam.vfov, "fov_axis": "y",
-            "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.look_from), target=list(cam.look_at), up=list(cam.up)),
-            "film": {"type": "hdrfilm", "width": image.width, "height": image.pixel_height, "rfilter": {"type": "box"},
-                     "pixel_format": "rgb"},
-            "sampler": {"type": "independent", "sample_count": 4},
-        },
-        **objects,
-    }
-    scene_mi = mi.load_dict(definition)
-    mi.render(scene_mi, spp=PASS_SPP, seed=0)  # compile before the clock starts
-    # Passes of the same size (one compiled kernel), each with its own seed, until the time is spent.
-    total, passes = None, 0
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        image = np.array(mi.render(scene_mi, spp=PASS_SPP, seed=1 + passes))[..., :3]
-        total = image if total is None else total + image
-        passes += 1
-    return total / passes, passes * PASS_SPP, time.perf_counter() - t0, variant
+    variant = set_variant()
+    scene_mi = mi.load_dict(scene_dict(load_graph("cornell_box", width), spp=PASS_SPP))
+    passes = render_passes(scene_mi, PASS_SPP, seconds=seconds)
+    return passes.mean(), passes.samples, passes.seconds, variant
 
 
 def mitsuba_reference(width: int, seconds: float, tag: str = ""):

@@ -1,0 +1,245 @@
+"""One of our scene graphs as a Mitsuba 3 scene, for the benchmarks that render both side by side.
+
+    from mitsuba_scene import set_variant, scene_dict, render_passes
+    variant = set_variant()              # llvm_ad_rgb when DRJIT_LIBLLVM_PATH is set, else scalar_rgb
+    scene = mi.load_dict(scene_dict(graph))
+    passes = render_passes(scene, spp=4, seconds=10)  # or passes=...
+
+What it converts: quads, boxes and spheres (each with its transform), the camera (no defocus), a
+black background, and the materials that Mitsuba has an equal of (lambertian, diffuse_light,
+conductor, rough_dielectric, plastic). Anything else raises ValueError naming it, so a comparison
+never silently renders something else.
+
+Where the two renderers differ by convention, and what this module does about it:
+
+- Our surfaces scatter on both sides; Mitsuba's reflecting BSDFs only on the front. Each such
+  BSDF is wrapped in Mitsuba's `twosided`. Dielectrics are two-sided in both.
+- Our area lights emit from both sides; Mitsuba's only along the shape's normal. A quad light
+  is turned to face +y or -y as `light_faces` says (down, into the Cornell box, by default); the
+  light its back would send must not matter to the image (put the lamp flush with the ceiling, as
+  `FLUSH_LAMP` does for the shipped Cornell box).
+- Depth: Mitsuba counts the camera ray's hit as depth 1, so our `max_depth` bounces are its
+  `max_depth + 1`.
+- Pixels: both draw camera rays uniformly over the pixel (Mitsuba's box filter of radius 0.5).
+- GGX: Mitsuba's rough BSDFs take the width alpha and use the separable Smith term G1 G1 with
+  visible-normal sampling; our materials say `alpha:` and `shadowing: separable` to match (our
+  `roughness` r is alpha = r^2).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+# The shipped Cornell box with its lamp flush with the ceiling: the light its back sends up then
+# meets the lamp itself within 0.001 and goes nowhere, so our two-sided lamp and Mitsuba's
+# one-sided one light the box alike.
+FLUSH_LAMP = ("shapes[2].q=[343,554.999,332]",)
+
+
+def set_variant() -> str:
+    """Choose Mitsuba's variant: the vectorised LLVM one when its library is named, else scalar."""
+    import mitsuba as mi
+
+    variant = "llvm_ad_rgb" if os.environ.get("DRJIT_LIBLLVM_PATH") else "scalar_rgb"
+    mi.set_variant(variant)
+    return variant
+
+
+def _affine4(m) -> np.ndarray:
+    return np.array([list(row) for row in m] + [[0.0, 0.0, 0.0, 1.0]], float)
+
+
+def _rgb(value) -> dict:
+    return {"type": "rgb", "value": [float(x) for x in value]}
+
+
+def _constant(value, what: str):
+    """A plain colour or number from a model field; textures are not converted."""
+    if isinstance(value, (int, float)):
+        return float(value)
+    if isinstance(value, (tuple, list)) and len(value) == 3 and all(isinstance(x, (int, float)) for x in value):
+        return [float(x) for x in value]
+    raise ValueError(f"the Mitsuba conversion takes only constant {what}, not {value!r}")
+
+
+def _alpha(model) -> tuple[float, float]:
+    """(alpha_u, alpha_v), the GGX widths: `alpha` as given, `roughness` r as r^2."""
+    def width(alpha, roughness):
+        if alpha is not None:
+            return float(alpha)
+        if roughness is not None:
+            return float(roughness) ** 2
+        return 0.0
+    au = width(getattr(model, "alpha", None), getattr(model, "roughness", None))
+    av = width(getattr(model, "alpha_v", None), getattr(model, "roughness_v", None))
+    return au, (av if (getattr(model, "alpha_v", None) is not None or getattr(model, "roughness_v", None) is not None) else au)
+
+
+def _check_separable(model) -> None:
+    shadowing = getattr(model, "shadowing", "separable")
+    if shadowing != "separable":
+        raise ValueError(f"Mitsuba's GGX uses the separable Smith term: give the {model.type} `shadowing: separable`")
+
+
+def _microfacet(au: float, av: float) -> dict:
+    return {"distribution": "ggx", "sample_visible": True, "alpha_u": au, "alpha_v": av}
+
+
+def _conductor_index(model) -> tuple[list, list]:
+    """(eta, k) RGB of a conductor model: given, or looked up by the metal's name in our table."""
+    if getattr(model, "eta", None) is not None:
+        return _constant(model.eta, "eta"), _constant(model.k, "k")
+    from renderer.materials import conductor_index  # the table of named metals, shared with the kernel's rows
+
+    eta, k = conductor_index(model.metal)
+    return [float(x) for x in eta], [float(x) for x in k]
+
+
+def bsdf(model) -> tuple[str, dict]:
+    """('bsdf' or 'emitter', Mitsuba's dict) for one of our material models."""
+    kind = model.type
+    if kind == "diffuse_light":
+        return "emitter", {"type": "area", "radiance": _rgb(_constant(model.emit, "emission"))}
+    if kind == "lambertian":
+        inner = {"type": "diffuse", "reflectance": _rgb(_constant(model.albedo, "albedo"))}
+    elif kind == "conductor":
+        _check_separable(model)
+        eta, k = _conductor_index(model)
+        au, av = _alpha(model)
+        inner = {"type": "roughconductor" if au > 0 else "conductor", "eta": _rgb(eta), "k": _rgb(k),
+                 "specular_reflectance": _rgb(_constant(getattr(model, "tint", (1.0, 1.0, 1.0)), "tint"))}
+        if au > 0:
+            inner.update(_microfacet(au, av))
+    elif kind == "rough_dielectric":
+        _check_separable(model)
+        au, av = _alpha(model)
+        tint = _rgb(_constant(getattr(model, "tint", (1.0, 1.0, 1.0)), "tint"))
+        out = {"type": "roughdielectric" if au > 0 else "dielectric", "int_ior": float(model.ior), "ext_ior": 1.0,
+               "specular_transmittance": tint}
+        if au > 0:
+            out.update(_microfacet(au, av))
+        return "bsdf", out  # both sides of a dielectric are alike in Mitsuba: no `twosided`
+    elif kind == "plastic":
+        au, av = _alpha(model)
+        if au != av:
+            raise ValueError("Mitsuba's roughplastic is isotropic")
+        inner = {"type": "roughplastic" if au > 0 else "plastic", "int_ior": float(model.ior), "ext_ior": 1.0,
+                 "diffuse_reflectance": _rgb(_constant(model.albedo, "albedo")),
+                 "nonlinear": bool(getattr(model, "nonlinear", False))}
+        if au > 0:
+            _check_separable(model)
+            inner.update({"distribution": "ggx", "sample_visible": True, "alpha": au})
+    else:
+        raise ValueError(f"the Mitsuba conversion has no equal of a {kind} material")
+    return "bsdf", {"type": "twosided", "bsdf": inner}
+
+
+def shape(model, transform, slot: str, light_faces: float) -> dict:
+    """Mitsuba's shape dict for one of our shapes (without its material)."""
+    import mitsuba as mi
+
+    to_world = _affine4(transform)
+    m = np.eye(4)
+    if model.type == "quad":
+        q, u, v = (np.array(x, float) for x in (model.q, model.u, model.v))
+        if slot == "emitter" and np.cross(u, v)[1] * light_faces < 0:
+            u, v = v, u  # one-sided in Mitsuba: face it the way the lamp is to shine
+        n = np.cross(u, v)
+        # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u / 2, v / 2, n / np.linalg.norm(n), q + u / 2 + v / 2
+        kind = "rectangle"
+    elif model.type == "box":
+        lo, hi = np.array(model.min, float), np.array(model.max, float)
+        m[:3, :3] = np.diag((hi - lo) / 2)
+        m[:3, 3] = (hi + lo) / 2
+        kind = "cube"
+    elif model.type == "sphere":
+        m[:3, :3] = np.eye(3) * float(model.radius)
+        m[:3, 3] = np.array(model.center, float)
+        kind = "sphere"
+    else:
+        raise ValueError(f"the Mitsuba conversion does not convert a {model.type}")
+    return {"type": kind, "to_world": mi.ScalarTransform4f((to_world @ m).tolist())}
+
+
+def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
+    """Mitsuba's scene dict for `graph`: its shapes, materials, camera and path depth.
+    `light_faces` is the sign of y along which quad lights shine (-1: down)."""
+    import mitsuba as mi
+
+    background = getattr(graph, "background", None)
+    colour = getattr(background, "color", background)
+    if colour is not None and not (isinstance(colour, (tuple, list)) and not any(colour)):
+        raise ValueError(f"the Mitsuba conversion takes only a black background, not {background!r}")
+    objects = {}
+    for k, member in enumerate(graph.root.members):
+        slot, value = bsdf(member.material.model)
+        entry = shape(member.model, member.transform, slot, light_faces)
+        entry[slot] = value
+        objects[f"s{k}"] = entry
+    cam, image = graph.camera, graph.image
+    if cam.defocus_angle or cam.aperture:
+        raise ValueError("the Mitsuba conversion has no defocus")
+    return {
+        "type": "scene",
+        # Mitsuba counts the camera ray's hit as depth 1 and the emitter hit after max_depth - 1 bounces.
+        "integrator": {"type": "path", "max_depth": image.max_depth + 1},
+        "sensor": {
+            "type": "perspective", "fov": cam.vfov, "fov_axis": "y",
+            "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.look_from), target=list(cam.look_at), up=list(cam.up)),
+            "film": {"type": "hdrfilm", "width": image.width, "height": image.pixel_height, "rfilter": {"type": "box"},
+                     "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        **objects,
+    }
+
+
+class Passes:
+    """Running per-pixel sums of Mitsuba's pass images (each the mean of `spp` samples): the image,
+    and the variance of each pixel's mean from the spread of its passes."""
+
+    def __init__(self, spp: int):
+        self.spp, self.count, self.total, self.total_sq, self.seconds, self.cpu_seconds = spp, 0, None, None, 0.0, 0.0
+
+    def add(self, image: np.ndarray) -> None:
+        image = np.asarray(image, np.float64)[..., :3]
+        if self.total is None:
+            self.total, self.total_sq = np.zeros_like(image), np.zeros_like(image)
+        self.total += image
+        self.total_sq += image * image
+        self.count += 1
+
+    @property
+    def samples(self) -> int:
+        return self.count * self.spp
+
+    def mean(self) -> np.ndarray:
+        return self.total / max(self.count, 1)
+
+    def mean_variance(self) -> np.ndarray:
+        """Variance of each pixel's mean: its passes' unbiased variance over their number (needs 2 passes)."""
+        n = self.count
+        return np.maximum(self.total_sq - self.total * (self.total / n), 0.0) / (n - 1) / n
+
+
+def render_passes(scene, spp: int, passes: int | None = None, seconds: float | None = None, seed: int = 1) -> Passes:
+    """Render `scene` in passes of `spp` samples (one compiled kernel), each with its own seed,
+    until `passes` are done or `seconds` of wall time are spent. The first, compiling, call is
+    made before the clock starts and not counted."""
+    import mitsuba as mi
+
+    mi.render(scene, spp=spp, seed=0)
+    out = Passes(spp)
+    t0, c0 = time.perf_counter(), time.process_time()
+    while True:
+        if passes is not None and out.count >= passes:
+            break
+        if seconds is not None and time.perf_counter() - t0 >= seconds:
+            break
+        out.add(np.array(mi.render(scene, spp=spp, seed=seed + out.count)))
+    out.seconds, out.cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
+    return out

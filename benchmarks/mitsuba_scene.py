@@ -92,10 +92,10 @@ def _conductor_index(model) -> tuple[list, list]:
     """(eta, k) RGB of a conductor model: given, or looked up by the metal's name in our table."""
     if getattr(model, "eta", None) is not None:
         return _constant(model.eta, "eta"), _constant(model.k, "k")
-    from renderer.materials import conductor_index  # the table of named metals, shared with the kernel's rows
+    from scenefmt.metals import metal  # the table of named metals our rows are made from
 
-    eta, k = conductor_index(model.metal)
-    return [float(x) for x in eta], [float(x) for x in k]
+    named = metal(model.metal)
+    return [float(x) for x in named.eta], [float(x) for x in named.k]
 
 
 def bsdf(model) -> tuple[str, dict]:

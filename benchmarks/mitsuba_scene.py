@@ -58,7 +58,7 @@ def _rgb(value) -> dict:
 
 def _constant(value, what: str):
     """A plain colour or number from a model field; textures are not converted."""
-    if isinstance(value, (int, float)):
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
         return float(value)
     if isinstance(value, (tuple, list)) and len(value) == 3 and all(isinstance(x, (int, float)) for x in value):
         return [float(x) for x in value]
@@ -66,16 +66,13 @@ def _constant(value, what: str):
 
 
 def _alpha(model) -> tuple[float, float]:
-    """(alpha_u, alpha_v), the GGX widths: `alpha` as given, `roughness` r as r^2."""
-    def width(alpha, roughness):
-        if alpha is not None:
-            return float(alpha)
-        if roughness is not None:
-            return float(roughness) ** 2
-        return 0.0
-    au = width(getattr(model, "alpha", None), getattr(model, "roughness", None))
-    av = width(getattr(model, "alpha_v", None), getattr(model, "roughness_v", None))
-    return au, (av if (getattr(model, "alpha_v", None) is not None or getattr(model, "roughness_v", None) is not None) else au)
+    """(alpha_u, alpha_v), the GGX widths, as the model's `widths` gives them (a roughness squared)."""
+    def width(given):
+        value, squared = given
+        value = _constant(value, "roughness")
+        return value * value if squared else value
+    u, v = model.widths()
+    return width(u), width(v)
 
 
 def _check_separable(model) -> None:
@@ -89,13 +86,9 @@ def _microfacet(au: float, av: float) -> dict:
 
 
 def _conductor_index(model) -> tuple[list, list]:
-    """(eta, k) RGB of a conductor model: given, or looked up by the metal's name in our table."""
-    if getattr(model, "eta", None) is not None:
-        return _constant(model.eta, "eta"), _constant(model.k, "k")
-    from scenefmt.metals import metal  # the table of named metals our rows are made from
-
-    named = metal(model.metal)
-    return [float(x) for x in named.eta], [float(x) for x in named.k]
+    """(eta, k) RGB of a conductor model: given, or its named metal's (the values our rows hold)."""
+    eta, k = model.index()
+    return [float(x) for x in eta], [float(x) for x in k]
 
 
 def bsdf(model) -> tuple[str, dict]:

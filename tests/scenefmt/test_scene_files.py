@@ -78,6 +78,26 @@ EXPECTED = {
     "sky_spheres.yaml": (
         {"sphere": 4}, (320, 180), 64, 16, dict(look_from=(0, 1.1, 4.5), look_at=(0, 0.45, 0), vfov=35), "image",
     ),
+    # Not from the books: issue 31's material families, one Cornell box each, and a row of them under the map.
+    "cornell_conductor.yaml": (
+        {"quad": 6, "sphere": 2}, (400, 400), 128, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "cornell_rough_glass.yaml": (
+        {"quad": 6, "sphere": 1, "box": 1}, (400, 400), 256, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "cornell_plastic.yaml": (
+        {"quad": 6, "sphere": 1, "box": 1}, (400, 400), 128, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "cornell_principled.yaml": (
+        {"quad": 6, "sphere": 3}, (400, 400), 128, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "material_spheres.yaml": (
+        {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=30), "image",
+    ),
 }
 
 

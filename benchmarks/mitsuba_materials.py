@@ -57,6 +57,8 @@ CASES: dict[str, tuple[str, tuple[str, ...]]] = {
                       probe("{type: conductor, metal: gold, alpha: 0.3, shadowing: separable}")),
     "rough_dielectric": ("rough glass, alpha 0.2, ior 1.5",
                          probe("{type: rough_dielectric, ior: 1.5, alpha: 0.2, shadowing: separable}")),
+    "thin_dielectric": ("a thin sheet of glass (ior 1.5) as a sphere: reflects, and lets light through unbent",
+                        probe("{type: thin_dielectric, ior: 1.5}")),
     "plastic": ("smooth plastic, ior 1.5 over blue",
                 probe("{type: plastic, albedo: [0.1, 0.25, 0.6], ior: 1.5}")),
     "roughplastic": ("rough plastic, alpha 0.2, ior 1.5 over blue",

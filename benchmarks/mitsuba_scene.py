@@ -7,8 +7,8 @@
 
 What it converts: quads, boxes and spheres (each with its transform), the camera (no defocus), a
 black background, and the materials that Mitsuba has an equal of (lambertian, diffuse_light,
-conductor, rough_dielectric, plastic). Anything else raises ValueError naming it, so a comparison
-never silently renders something else.
+conductor, rough_dielectric, thin_dielectric, plastic). Anything else raises ValueError naming it,
+so a comparison never silently renders something else (textures, normal and bump maps included).
 
 Where the two renderers differ by convention, and what this module does about it:
 
@@ -94,6 +94,8 @@ def _conductor_index(model) -> tuple[list, list]:
 def bsdf(model) -> tuple[str, dict]:
     """('bsdf' or 'emitter', Mitsuba's dict) for one of our material models."""
     kind = model.type
+    if getattr(model, "normal_map", None) is not None or getattr(model, "bump_map", None) is not None:
+        raise ValueError(f"the Mitsuba conversion does not convert the normal or bump map of a {kind} material")
     if kind == "diffuse_light":
         return "emitter", {"type": "area", "radiance": _rgb(_constant(model.emit, "emission"))}
     if kind == "lambertian":
@@ -110,11 +112,16 @@ def bsdf(model) -> tuple[str, dict]:
         _check_separable(model)
         au, av = _alpha(model)
         tint = _rgb(_constant(getattr(model, "tint", (1.0, 1.0, 1.0)), "tint"))
+        # Our tint multiplies both what is reflected and what is transmitted.
         out = {"type": "roughdielectric" if au > 0 else "dielectric", "int_ior": float(model.ior), "ext_ior": 1.0,
-               "specular_transmittance": tint}
+               "specular_reflectance": tint, "specular_transmittance": tint}
         if au > 0:
             out.update(_microfacet(au, av))
         return "bsdf", out  # both sides of a dielectric are alike in Mitsuba: no `twosided`
+    elif kind == "thin_dielectric":
+        # A sheet: the tint multiplies only what goes through. Two-sided in Mitsuba already.
+        return "bsdf", {"type": "thindielectric", "int_ior": float(model.ior), "ext_ior": 1.0,
+                        "specular_transmittance": _rgb(_constant(model.tint, "tint"))}
     elif kind == "plastic":
         au, av = _alpha(model)
         if au != av:

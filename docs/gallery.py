@@ -1,9 +1,10 @@
 """Render every scene in scenes/ for docs/gallery.md (run by hand; the PNGs are committed).
 
-    python docs/gallery.py
+    python docs/gallery.py [NAME ...]
 
-Each scene is rendered at a small width with enough samples for the book's image to be
-recognisable; the table records the settings and the time each took on this machine.
+With names (stems of scenes/ files), only those scenes are rendered again; the other rows of
+docs/gallery.md are kept as they are. Each scene is rendered at a small width with enough samples
+for the book's image to be recognisable; the table records the settings and the time each took on this machine.
 """
 
 from __future__ import annotations
@@ -16,11 +17,26 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "gallery"
 WIDTH = 256
 # Samples per pixel: more where the light is small or the scene is mostly indirect.
-SPP = {"cornell_box": 512, "cornell_knot": 512, "cornell_smoke": 256, "final_scene": 512, "simple_light": 256}
+SPP = {"cornell_box": 512, "cornell_knot": 512, "cornell_smoke": 256, "final_scene": 512, "simple_light": 256,
+       "cornell_conductor": 512, "cornell_plastic": 512, "cornell_principled": 512, "cornell_rough_glass": 1024}
 DEFAULT_SPP = 128
 
 
-def main() -> int:
+def kept_rows(names: set) -> dict:
+    """The rows of the current docs/gallery.md, by scene stem, except those of `names`."""
+    page = ROOT / "docs" / "gallery.md"
+    rows = {}
+    if page.exists():
+        for line in page.read_text().splitlines():
+            if line.startswith("| `"):
+                stem = line.split("`")[1].rsplit(".", 1)[0]
+                if stem not in names:
+                    rows[stem] = line
+    return rows
+
+
+def main(argv=None) -> int:
+    names = set(sys.argv[1:] if argv is None else argv)
     sys.path.insert(0, str(ROOT))
     from renderer.film import write_png
     from renderer.compile import with_width
@@ -29,8 +45,12 @@ def main() -> int:
 
     OUT.mkdir(exist_ok=True)
     rows = []
+    kept = kept_rows(names) if names else {}
     scenes = sorted((ROOT / "scenes").glob("*.yaml")) + sorted((ROOT / "scenes").glob("*.json"))
     for path in scenes:
+        if path.stem in kept:
+            rows.append(kept[path.stem])
+            continue
         loaded = load(path)
         graph = with_width(loaded.graph, WIDTH)
         spp = SPP.get(path.stem, DEFAULT_SPP)

@@ -69,7 +69,7 @@ def test_block_means_average_pixels_and_their_variances():
 
 
 def test_the_conversion_maps_widths_and_refuses_what_mitsuba_renders_otherwise():
-    from scenefmt.materials import Conductor, DiffuseLight, Isotropic, Lambertian, Plastic, RoughDielectric
+    from scenefmt.materials import Conductor, DiffuseLight, Isotropic, Lambertian, Plastic, RoughDielectric, ThinDielectric
 
     assert mitsuba_scene._alpha(Conductor(alpha=0.3)) == (0.3, 0.3)
     assert mitsuba_scene._alpha(Conductor(roughness=0.5, roughness_v=0.2)) == pytest.approx((0.25, 0.04))
@@ -82,6 +82,10 @@ def test_the_conversion_maps_widths_and_refuses_what_mitsuba_renders_otherwise()
     assert glass["type"] == "roughdielectric" and glass["int_ior"] == 1.5  # two-sided in Mitsuba already
     _, coat = mitsuba_scene.bsdf(Plastic(albedo=(0.1, 0.2, 0.3)))
     assert coat["bsdf"]["type"] == "plastic"  # smooth by default in both
+    with pytest.raises(ValueError, match="constant"):
+        mitsuba_scene.bsdf(Lambertian(albedo="checker"))  # a texture by name
+    _, sheet = mitsuba_scene.bsdf(ThinDielectric(ior=1.33, tint=(1, 0.5, 0.5)))
+    assert sheet["type"] == "thindielectric" and sheet["specular_transmittance"]["value"] == [1, 0.5, 0.5]
     with pytest.raises(ValueError, match="no equal"):
         mitsuba_scene.bsdf(Isotropic())
     kind, lamp = mitsuba_scene.bsdf(DiffuseLight(emit=(15, 15, 15)))

@@ -4,11 +4,11 @@
                                                [--clock cpu|wall] [--material YAML]
 
 The scene: the shipped Cornell box with its lamp shrunk to 20 x 20 at the same power (a small,
-bright light), a rough metal floor and a rough metal sphere where the tall block stood (GGX
-alpha 0.15, `--material` changes it), white walls lit mostly by that lamp. A glossy lobe of
-that width sees the lamp in a cone of a few degrees: `path` finds it only when a sampled
-direction happens to fall on it, while `mis` also aims a shadow ray at it from every glossy
-vertex and weighs the two by the power heuristic.
+bright light), a rough metal floor and a rough metal sphere where the tall block stood (gold,
+GGX alpha 0.15; `--material` changes it), and dim walls (grey 0.4 and the box's red and green)
+lit by that lamp. A glossy lobe of that width sees the lamp in a cone of a few degrees: `path`
+finds it only when a sampled direction happens to fall on it, while `mis` also aims a shadow ray
+at it from every glossy vertex and weighs the two by the power heuristic.
 
 Printed: two converged references (`mis` at --ref-spp, two seeds; their RMS difference over
 root 2 is each one's own error, which must be far below the errors measured), then per
@@ -43,6 +43,7 @@ SMALL_LAMP = (
 
 def settings(material: str) -> tuple[str, ...]:
     return SMALL_LAMP + (
+        "materials.white={type: lambertian, albedo: [0.4, 0.4, 0.4]}",  # dim surroundings
         f"materials.glossy={material}",
         "shapes[3].material=glossy",  # the floor
         "shapes[6]={type: sphere, center: [380, 120, 380], radius: 120, material: glossy}",

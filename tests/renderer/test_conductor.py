@@ -223,7 +223,7 @@ def test_furnace_energy_lost_at_alpha_one(wo, correlated, expected):
 
 def test_finite_at_grazing_angles_and_extreme_alphas():
     views = [NORMAL_VIEW, direction(math.pi / 2 - 1e-9, 0.2), direction(math.pi / 2, 0.7), direction(1e-12, 0.0),
-             GRAZING_VIEW, (1.0, 0.0, 0.0), (0.0, 0.0, -1.0)]
+             GRAZING_VIEW, (1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (1.0, 0.0, 5e-324), (0.0, 1.0, 1e-310)]
     for ax, ay in ((0.0, 0.0), (MIN_ALPHA, MIN_ALPHA), (MIN_ALPHA, 1.0), (1.0, 1.0), (1.0, 0.0)):
         for wo in views:
             for correlated in (True, False):

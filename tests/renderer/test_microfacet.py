@@ -190,7 +190,7 @@ def test_visible_normal_sampler_follows_its_pdf(ax, ay, w):
 def test_finite_at_the_edges():
     edge_alphas = [mf.MIN_ALPHA, 1.0]
     dirs = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, -1.0), _direction(math.pi / 2 - 1e-9, 0.3),
-            _direction(1e-9, 1.0), (math.sqrt(0.5), 0.0, -math.sqrt(0.5))]
+            _direction(1e-9, 1.0), (math.sqrt(0.5), 0.0, -math.sqrt(0.5)), (1.0, 0.0, 5e-324), (0.0, 1.0, -1e-310)]
     for ax in edge_alphas:
         for ay in edge_alphas:
             for w in dirs:

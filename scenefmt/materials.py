@@ -14,7 +14,7 @@ from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 
 from .base import Color, Name, Number, StrictModel, field_error, slot_kind
-from .metals import METALS
+from . import metals
 from .textures import TextureSlot
 
 
@@ -54,7 +54,7 @@ ScalarSlot = Annotated[
 ]
 """A number, or a channel of a texture."""
 
-MetalName = Literal[tuple(METALS)]  # type: ignore[valid-type]
+MetalName = Literal[tuple(metals.names())]  # type: ignore[valid-type]
 
 Shadowing = Literal["correlated", "separable"]
 SHADOWING_DESCRIPTION = (
@@ -215,7 +215,7 @@ class Conductor(Roughness, SurfaceMaps):
 
     ```yaml
     type: conductor
-    metal: aluminium
+    metal: gold
     roughness: 0.3
     ```
     """
@@ -240,8 +240,8 @@ class Conductor(Roughness, SurfaceMaps):
         """(eta, k) per channel."""
         if self.eta is not None:
             return tuple(self.eta), tuple(self.k)
-        eta, k, _ = METALS[self.metal or "aluminium"]
-        return eta, k
+        known = metals.metal(self.metal or "aluminium")
+        return known.eta, known.k
 
 
 class RoughDielectric(Roughness, SurfaceMaps):

@@ -4,11 +4,13 @@ material's own functions (see the package's docstring for the contract)."""
 from .. import target
 
 from ..kernel_flags import CONDUCTORS, DIELECTRICS, EMITTERS, IMAGE, PARAMETER_TEXTURES, PLASTICS, PRINCIPLED, ROUGH_DIELECTRICS
+from ..numerics.frame import frame_of, to_local, to_world
 from ..numerics.rng import uniform
-from ..numerics.vec import unit
+from ..numerics.vec import neg, unit
 from ..textures import texture_value
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value, metal_direction,
                     random_unit_vector)
+from .families import family_eval, family_has_density, family_pdf, family_sample
 from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM,
                     MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE, MAT_READS_UV, MAT_TEXTURE, METAL)
 
@@ -134,6 +136,14 @@ def sample_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_fac
         return dielectric_direction(d, n_front, front_face, mat_f[mat, MAT_IOR], uniform(key, dim + 8)), color, 0.0, True
     if kind == ISOTROPIC:
         return random_unit_vector(key, dim), color, ISOTROPIC_DENSITY, False
+    if MICROFACETS and kind >= CONDUCTOR:
+        s, t = frame_of(n_front, tangent)
+        wo = to_local(s, t, n_front, neg(unit(d)))
+        wi, weight, pdf, delta = family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, uniform(key, dim),
+                                               uniform(key, dim + 1), uniform(key, dim + 2))
+        if pdf == 0.0 and not delta:
+            return zero, zero, 0.0, False
+        return to_world(s, t, n_front, wi), weight, pdf, delta
     return zero, zero, 0.0, True
 
 
@@ -148,12 +158,12 @@ def has_density(mat_i, mat, params):
     if kind == LAMBERTIAN or kind == ISOTROPIC:
         return True
     if MICROFACETS and kind >= CONDUCTOR:
-        return True
+        return family_has_density(kind, params)
     return False
 
 
 @target.device
-def eval_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, wi):
+def eval_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_face, wi):
     """f . cos of material row `mat` for light arriving from unit direction wi and leaving
     against d, as (tint, value) with f . cos = tint * value (see above); for a medium's
     material the phase function's value, which has no cosine. Non-negative, f reciprocal
@@ -164,11 +174,18 @@ def eval_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, wi):
         return color, lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
         return color, ISOTROPIC_DENSITY
+    if MICROFACETS and kind >= CONDUCTOR:
+        # The whole of f . cos as the tint, and 1 (or 0 where it is black, which spares the
+        # integrator a shadow ray).
+        s, t = frame_of(n_front, tangent)
+        f = family_eval(kind, mat_i, mat_f, mat, color, params, front_face, to_local(s, t, n_front, neg(unit(d))),
+                        to_local(s, t, n_front, wi))
+        return f, 1.0 if (f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0) else 0.0
     return color, 0.0
 
 
 @target.device
-def pdf_bsdf(mat_i, mat_f, mat, params, d, n_front, tangent, wi):
+def pdf_bsdf(mat_i, mat_f, mat, params, d, n_front, tangent, front_face, wi):
     """The density per solid angle with which `sample_bsdf` gives unit direction wi for a ray
     of direction d; 0 for a delta lobe."""
     kind = mat_i[mat, MAT_KIND]
@@ -176,6 +193,10 @@ def pdf_bsdf(mat_i, mat_f, mat, params, d, n_front, tangent, wi):
         return lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
         return ISOTROPIC_DENSITY
+    if MICROFACETS and kind >= CONDUCTOR:
+        s, t = frame_of(n_front, tangent)
+        return family_pdf(kind, mat_i, mat_f, mat, params, front_face, to_local(s, t, n_front, neg(unit(d))),
+                          to_local(s, t, n_front, wi))
     return 0.0
 
 

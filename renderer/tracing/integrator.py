@@ -110,11 +110,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
             if ok and light > 0.0:
-                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, wi)
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, wi)
             else:
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
-                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, wi)
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -137,7 +137,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, unit(new_d))
+            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, unit(new_d))
             prev_p = p
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by

@@ -96,22 +96,22 @@ def _bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce, params, 
         out[k, 6], out[k, 7] = pdf, 1.0 if delta else 0.0
         if wi[0] != 0.0 or wi[1] != 0.0 or wi[2] != 0.0:
             w = unit(wi)
-            out[k, 8] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, w)
-            tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, w)
+            out[k, 8] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, front, w)
+            tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, front, w)
             out[k, 9], out[k, 10], out[k, 11], out[k, 12] = tint[0], tint[1], tint[2], value
     return out
 
 
-def bsdf_values(mat_i, mat_f, color, d, n_front, wi, params=None, tangent=None):
+def bsdf_values(mat_i, mat_f, color, d, n_front, wi, params=None, tangent=None, front=True):
     """`eval_bsdf` and `pdf_bsdf` of material row 0 for each (d[k], n_front[k], wi[k]): rows
     (tint 3, value, pdf); `params` and `tangent` as for `bsdf_samples`."""
     params = np.zeros(8) if params is None else np.asarray(params, np.float64)
     tangent = np.zeros_like(np.asarray(d, np.float64)) if tangent is None else np.asarray(tangent, np.float64)
-    return _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent)
+    return _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent, front)
 
 
 @target.kernel
-def _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent):
+def _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent, front):
     c = (color[0], color[1], color[2])
     pr = _tuple8(params)
     out = np.zeros((d.shape[0], 5))
@@ -120,9 +120,9 @@ def _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent):
         nk = (n_front[k, 0], n_front[k, 1], n_front[k, 2])
         tk = (tangent[k, 0], tangent[k, 1], tangent[k, 2])
         wk = (wi[k, 0], wi[k, 1], wi[k, 2])
-        tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, wk)
+        tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, front, wk)
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = tint[0], tint[1], tint[2], value
-        out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, wk)
+        out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, front, wk)
     return out
 
 

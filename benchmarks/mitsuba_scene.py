@@ -36,6 +36,7 @@ import numpy as np
 # The shipped Cornell box with its lamp flush with the ceiling: the light its back sends up then
 # meets the lamp itself within 0.001 and goes nowhere, so our two-sided lamp and Mitsuba's
 # one-sided one light the box alike.
+DEPTH_OFFSET = 0
 FLUSH_LAMP = ("shapes[2].q=[343,554.999,332]",)
 
 
@@ -185,8 +186,7 @@ def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
         raise ValueError("the Mitsuba conversion has no defocus")
     return {
         "type": "scene",
-        # Mitsuba counts the camera ray's hit as depth 1 and the emitter hit after max_depth - 1 bounces.
-        "integrator": {"type": "path", "max_depth": image.max_depth + 1},
+        "integrator": {"type": "path", "max_depth": image.max_depth + DEPTH_OFFSET},
         "sensor": {
             "type": "perspective", "fov": cam.vfov, "fov_axis": "y",
             "to_world": mi.ScalarTransform4f().look_at(origin=list(cam.look_from), target=list(cam.look_at), up=list(cam.up)),

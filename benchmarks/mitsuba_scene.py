@@ -18,8 +18,10 @@ Where the two renderers differ by convention, and what this module does about it
   is turned to face +y or -y as `light_faces` says (down, into the Cornell box, by default); the
   light its back would send must not matter to the image (put the lamp flush with the ceiling, as
   `FLUSH_LAMP` does for the shipped Cornell box).
-- Depth: Mitsuba counts the camera ray's hit as depth 1, so our `max_depth` bounces are its
-  `max_depth + 1`.
+- Depth: the same number in both. Mitsuba's `max_depth` 1 renders only the emitters the camera
+  sees and 2 direct light; our `max_depth` counts the segments of a path the same way (1: the
+  camera ray's own hit). Measured at depths 1 to 3 on the Cornell box (DEPTH_OFFSET 0; 1 gave
+  Mitsuba one bounce more).
 - Pixels: both draw camera rays uniformly over the pixel (Mitsuba's box filter of radius 0.5).
 - GGX: Mitsuba's rough BSDFs take the width alpha and use the separable Smith term G1 G1 with
   visible-normal sampling; our materials say `alpha:` and `shadowing: separable` to match (our
@@ -36,7 +38,7 @@ import numpy as np
 # The shipped Cornell box with its lamp flush with the ceiling: the light its back sends up then
 # meets the lamp itself within 0.001 and goes nowhere, so our two-sided lamp and Mitsuba's
 # one-sided one light the box alike.
-DEPTH_OFFSET = 0
+DEPTH_OFFSET = 0  # Mitsuba's max_depth minus ours for the same paths
 FLUSH_LAMP = ("shapes[2].q=[343,554.999,332]",)
 
 

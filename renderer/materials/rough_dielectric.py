@@ -59,10 +59,17 @@ NO_SAMPLE = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0, False)
 
 
 @target.device
-def rough_dielectric_is_smooth(ax, ay, eta):
-    """Whether the lobe is the smooth dielectric's two deltas: both widths below MIN_ALPHA (GGX
-    would be too narrow to evaluate), or no interface at all (eta = 1)."""
-    return (ax < MIN_ALPHA and ay < MIN_ALPHA) or eta == 1.0
+def rough_dielectric_is_smooth(ax, ay):
+    """Whether the lobe is the smooth dielectric's two deltas because GGX would be too narrow to
+    evaluate: both widths below MIN_ALPHA. (With eta = 1 it is a delta too, whatever its widths:
+    `no_interface`.)"""
+    return ax < MIN_ALPHA and ay < MIN_ALPHA
+
+
+@target.device
+def no_interface(eta):
+    """eta = 1: the same index on both sides, so nothing reflects and nothing bends."""
+    return eta == 1.0
 
 
 @target.device
@@ -86,11 +93,12 @@ def rough_dielectric_sample(ax, ay, eta, tint, correlated, wo, u0, u1, u2):
     weight = tint G(wo, wi) / G1(wo), finite and at most the tint; pdf the density of wi as
     `rough_dielectric_pdf` gives it. A sample that leaves on the wrong side of the macro surface
     (a reflection below it, a refraction above it: the single-scattering model's lost energy)
-    returns direction (0, 0, 0) and weight black. Smooth (see `rough_dielectric_is_smooth`): a delta, pdf 0.
+    returns direction (0, 0, 0) and weight black. Smooth (`rough_dielectric_is_smooth`, or
+    `no_interface`): a delta.
     """
     if not wo[2] > 0.0:
         return NO_SAMPLE
-    if rough_dielectric_is_smooth(ax, ay, eta):
+    if rough_dielectric_is_smooth(ax, ay) or no_interface(eta):
         return smooth_dielectric_sample(eta, tint, wo, u0)
     ax = max(ax, MIN_ALPHA)
     ay = max(ay, MIN_ALPHA)
@@ -153,7 +161,7 @@ def rough_dielectric_value_and_pdf(ax, ay, eta, correlated, wo, wi):
     """(f . |cos theta_i| without the tint, pdf) of the rough lobe for unit wo and wi: the two
     formulas of the module's docstring, sharing their half vector and Fresnel term. (0, 0) for
     a smooth lobe, wo.z <= 0, or a pair that no microfacet joins."""
-    if not wo[2] > 0.0 or rough_dielectric_is_smooth(ax, ay, eta):
+    if not wo[2] > 0.0 or rough_dielectric_is_smooth(ax, ay) or no_interface(eta):
         return 0.0, 0.0
     ax = max(ax, MIN_ALPHA)
     ay = max(ay, MIN_ALPHA)

@@ -101,9 +101,10 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             break
         new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, key,
                                           bounce_dim(bounce, 0))
-        if is_zero(new_d):
-            break
-        # The shadow ray is the path's next segment: only where max_depth allows one more.
+        # The shadow ray is the path's next segment: only where max_depth allows one more. It is
+        # cast whatever the bounce drew, even when it drew nothing (a microfacet sample lost to
+        # single scattering): the light estimate is an expectation over the light's samples
+        # alone, and skipping it with the bounce made rough lobes 16-30% dark.
         if nee and bounce + 1 < max_depth and has_density(S.mat_i, mat, params):
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
@@ -129,6 +130,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                     r += tr * tint[0] * le[0] * k
                     g += tg * tint[1] * le[1] * k
                     b += tb * tint[2] * le[2] * k
+        if is_zero(new_d):
+            break
         tr *= att[0]
         tg *= att[1]
         tb *= att[2]

@@ -186,6 +186,42 @@ def test_below_min_alpha_it_is_the_books_dielectric(alphas):
         assert density(*alphas, GLASS, TINT, True, wo, wi) == 0.0
 
 
+def test_a_narrow_lobe_is_close_to_the_smooth_one():
+    """At alpha 1e-3 (rough, with a density) the share reflected is the smooth Fresnel reflectance
+    and the directions lie close to the smooth one for the same u0: GGX's tails are long (a slope
+    beyond s has probability alpha^2 / (alpha^2 + s^2)), so most, not all, within 20 alpha."""
+    rng = np.random.default_rng(SEED + 6)
+    for eta in (GLASS, 1 / GLASS):
+        for theta in (0.0, 30.0, 60.0):
+            wo = direction(theta)
+            us = rng.random((400, 3))
+            reflected = 0
+            angles = []
+            for u0, u1, u2 in us:
+                wi, weight, pdf, delta = sample(1e-3, 1e-3, eta, WHITE, True, wo, u0, u1, u2)
+                smooth = sample(0.0, 0.0, eta, WHITE, True, wo, u0, u1, u2)[0]
+                assert not delta and pdf > 0.0
+                reflected += wi[2] > 0
+                if (wi[2] > 0) == (smooth[2] > 0):
+                    angles.append(math.acos(min(1.0, sum(a * b for a, b in zip(wi, smooth)))))
+                assert 0.0 < weight[0] <= 1.0
+            assert np.median(angles) < 3e-3 and np.mean(np.array(angles) < 0.02) > 0.97
+            fresnel = naive.fresnel_dielectric(wo[2], 1 / eta)
+            # Binomial noise of 400 draws, plus the lobe's width.
+            assert reflected / len(us) == pytest.approx(fresnel, abs=4 * math.sqrt(fresnel * (1 - fresnel) / 400) + 0.01)
+
+
+def test_total_internal_reflection_reflects_everything():
+    """Leaving glass (eta 1 / 1.5) at 60 degrees, past the critical angle of 41.8: a narrow lobe's
+    microfacets reflect totally (all but those of its far tail, steep enough to let some light
+    out), so every sample drawn is a reflection and none is lost."""
+    rng = np.random.default_rng(SEED + 7)
+    wo = direction(60.0)
+    for u in rng.random((300, 3)):
+        wi, weight, pdf, _ = sample(0.01, 0.01, 1 / GLASS, WHITE, True, wo, *map(float, u))
+        assert wi[2] > 0 and pdf > 0 and weight[0] > 0.99
+
+
 @pytest.mark.parametrize("alpha", [0.0, 0.3, 1.0])
 def test_ior_one_passes_straight_through(alpha):
     """eta = 1 is no interface: nothing reflects and nothing bends, rough or not (a rough lobe would

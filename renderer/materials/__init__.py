@@ -5,6 +5,7 @@ integrator (`tracing/integrator.trace`) asks only these and names no material:
 
 - `color_at`: its texture's colour at a hit (the albedo, or a light's radiance), evaluated once;
 - `emits` / `emitted`: whether it emits, and the radiance it sends back along the ray;
+- `scatters`: whether it also scatters (a path goes on from an emitter only if it does);
 - `sample_bsdf`: a scattered direction, the throughput weight f . cos / pdf, the density per
   solid angle, and whether the lobe is a delta (no density: never light-sampled);
 - `eval_bsdf`: f . cos for a given pair of directions, as colour times number;
@@ -24,7 +25,8 @@ The direction of each material is a function of its random inputs (`lambertian_d
 
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
                     metal_direction, random_unit_vector, reflect)
-from .dispatch import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from .dispatch import (color_at, emits, emitted, emitting_rows, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf,
+                       scatters)
 from .fresnel import fresnel_dielectric
 from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
                     MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
@@ -32,6 +34,6 @@ from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT
 __all__ = [
     "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_FUZZ", "MAT_IOR", "MAT_KIND",
     "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
-    "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
-    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf",
+    "emitting_rows", "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
+    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf", "scatters",
 ]

@@ -46,6 +46,22 @@ def emits(mat_i, mat):
 
 
 @target.device
+def scatters(mat_i, mat):
+    """Whether material row `mat` scatters the light that reaches it. Every material does but the
+    books' diffuse light, which absorbs it all: the path tracer ends a path at an emitter that
+    does not scatter and goes on from one that does (a principled surface with an emission)."""
+    return mat_i[mat, MAT_KIND] != DIFFUSE_LIGHT
+
+
+@target.kernel
+def emitting_rows(mat_i, out):
+    """out[mat] = whether material row `mat` emits, as `emits` answers it: the flattening of the
+    lights asks the interface, so an emitting material of a new kind is a light at once."""
+    for mat in range(mat_i.shape[0]):
+        out[mat] = emits(mat_i, mat)
+
+
+@target.device
 def emitted(mat_i, mat_f, mat, color, front_face):
     """Radiance that material row `mat` (one that `emits`) sends back along the ray that hit it.
 

@@ -225,10 +225,19 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
     p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, eta, base, cos_o,
                                                            rough)
     mirror = (-wo[0], -wo[1], wo[2])
-    transmitted = False
+    if p_diffuse + p_spec + p_trans + p_coat == 0.0:
+        return fail
+    # The lobe u0 falls in; a u0 past the rounded sum of the shares goes to the last lobe there is.
+    lobe = 3 if p_coat > 0.0 else (2 if p_trans > 0.0 else (1 if p_spec > 0.0 else 0))
     if u0 < p_diffuse:
-        wi = cosine_direction(u1, u2)
+        lobe = 0
     elif u0 < p_diffuse + p_spec:
+        lobe = 1
+    elif u0 < p_diffuse + p_spec + p_trans:
+        lobe = 2
+    if lobe == 0:
+        wi = cosine_direction(u1, u2)
+    elif lobe == 1:
         if not rough:
             # The specular layer and the metal as one mirror: both their Fresnel factors at wo.z.
             coat = 1.0 - clearcoat * schlick1(COAT_F0, cos_o)
@@ -239,7 +248,7 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
                       (layer + metallic * f_metal[2]) * k)
             return mirror, weight, 0.0, True
         wi = _reflect(wo, sample_visible_normal(ax, ay, wo, u1, u2))
-    elif u0 < p_diffuse + p_spec + p_trans:
+    elif lobe == 2:
         if not rough:
             coat = 1.0 - clearcoat * schlick1(COAT_F0, cos_o)
             under_layer = 1.0 - specular * schlick1(dielectric_f0(eta), cos_o)
@@ -247,15 +256,12 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
             return (-wo[0], -wo[1], -wo[2]), (base[0] * k, base[1] * k, base[2] * k), 0.0, True
         wr = _reflect(wo, sample_visible_normal(ax, ay, wo, u1, u2))
         wi = (wr[0], wr[1], -wr[2])
-        transmitted = True
-    elif p_coat > 0.0:
+    else:
         if cc_alpha < MIN_ALPHA:
             c = clearcoat * schlick1(COAT_F0, cos_o) / p_coat
             return mirror, (c, c, c), 0.0, True
         wi = _reflect(wo, sample_visible_normal(cc_alpha, cc_alpha, wo, u1, u2))
-    else:
-        return fail
-    if (wi[2] < 0.0) != transmitted or wi[2] == 0.0:
+    if (wi[2] < 0.0) != (lobe == 2) or wi[2] == 0.0:
         # A reflection off a microfacet that leaves below the surface: the surface shadows it.
         return fail
     pdf = principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo, wi)

@@ -50,7 +50,7 @@ from .background import BACKGROUND_IMAGE, BG_KIND, background
 from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS
-from .materials import MAT_READS_UV, color_at, emitted, emitting_rows
+from .materials import MAT_READS_UV, color_at, emitted_at, emitting_rows
 from .numerics.cdf import pmf_and_cdf, search_cdf
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
@@ -343,12 +343,12 @@ def area_ratio(inst_f, inst, n_world):
 @target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there), as
-    its material answers a ray that hits it there (`emitted`: two-sided, so the side is not asked)."""
+    its material answers a ray that hits it there (`emitted_at`: two-sided, so the side is not asked)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
     # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.
     _, _, u, v = surface(kind, S, prim, madd(x_tree, n_tree, 1.0), neg(n_tree), 1.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
-    return emitted(S.mat_i, S.mat_f, mat, color_at(S, mat, u, v, x_world), True)
+    return emitted_at(S, mat, color_at(S, mat, u, v, x_world), u, v, x_world, True)
 
 
 @target.device

@@ -378,3 +378,15 @@ def texture_fields(model) -> list[tuple[str, Any, str]]:
         if isinstance(value, ScalarTexture):
             found.append((key, value.texture, "scalar"))
     return found
+
+
+def emits(model) -> bool:
+    """Whether a material model sends light: the books' diffuse light always, a principled
+    material when its emission is not a constant black and its strength is above 0 (a textured
+    emission counts as light whatever its texels)."""
+    if model.type == "diffuse_light":
+        return True
+    if model.type == "principled":
+        e = model.emission
+        return model.emission_strength > 0 and not (isinstance(e, tuple) and max(e) <= 0)
+    return False

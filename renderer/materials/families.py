@@ -9,9 +9,12 @@ far side over the index on the near side, chosen here from the side the ray hit.
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS
+from ..kernel_flags import CONDUCTORS, PRINCIPLED
 from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
-from .table import CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_K, SLOT_ALPHA_U, SLOT_ALPHA_V
+from .principled import principled_eval, principled_has_density, principled_pdf, principled_sample
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_SPECULAR_COLOR, SLOT_ALPHA_U, SLOT_ALPHA_V,
+                    SLOT_CLEARCOAT, SLOT_CLEARCOAT_ALPHA, SLOT_METALLIC, SLOT_SPECULAR, SLOT_TRANSMISSION)
+from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 
 _BLACK = (0.0, 0.0, 0.0)
 _UP = (0.0, 0.0, 1.0)
@@ -29,6 +32,12 @@ def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                                 _row3(mat_f, mat, MAT_K), color, correlated, wo, u0, u1, u2)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        # Thin-walled: the index enters through F0 alone, the same from either side.
+        return principled_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                                 params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                                 params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], color,
+                                 correlated, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -39,6 +48,11 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                               _row3(mat_f, mat, MAT_K), color, correlated, wo, wi)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                               params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                               params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], color,
+                               correlated, wo, wi)
     return _BLACK
 
 
@@ -49,6 +63,11 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                              _row3(mat_f, mat, MAT_K), _BLACK, correlated, wo, wi)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                              params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                              params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], _BLACK,
+                              correlated, wo, wi)
     return 0.0
 
 
@@ -57,4 +76,7 @@ def family_has_density(kind, params):
     """Whether the family of `kind` with these parameters has a non-delta part."""
     if CONDUCTORS and kind == CONDUCTOR:
         return not conductor_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_has_density(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                                      params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA])
     return False

@@ -7,8 +7,9 @@ The lobes and how glTF's Appendix B mixes them:
 - specular(alpha): a GGX microfacet BRDF, D G / (4 |cos_o| |cos_i|), with the Smith shadowing
   `correlated` chooses (microfacet.py);
 - metal = specular * Schlick(F0 = base colour, |wo . h|);
-- dielectric = the specular layer weighted by s Schlick(F0 from the ior, |wo . h|) (s the
-  `specular` factor of KHR_materials_specular) over a base, which is
+- dielectric = the specular layer weighted by s Schlick(F0, |wo . h|) over a base, with s the
+  `specular` factor of KHR_materials_specular and F0 = ((ior - 1) / (ior + 1))^2 times its
+  `specular_color` (RGB, clamped to 1); the base is
   mix(diffuse base/pi, base-tinted transmission, transmission);
 - material = mix(dielectric, metal, metallic);
 - clearcoat: a second GGX layer of index 1.5 (F0 = 0.04) and width cc_alpha, weighted by
@@ -21,10 +22,11 @@ energy conserving"; its section "Coupling Diffuse and Specular Reflection"):
 - Coupling. glTF's `fresnel_mix` weights the base by 1 - F(wo . h). Its own discussion notes
   that this reflects more than it receives at grazing angles (a mirror-like layer taking ~F(wo.z)
   while the base still gets ~1 - F(wo . h) with h far from wo). We weight the base instead by
-  Burley's (2012) (1 - s F(cos_o)) (1 - s F(cos_i)), which the same discussion names: symmetric
-  in the two directions (reciprocal), energy conserving, and exactly 1 when s = 0. The clearcoat
-  couples to what is below it the same way, with its own F. The layers themselves keep
-  F(wo . h), the microfacet's own Fresnel factor.
+  Burley's (2012) (1 - s max F(cos_o)) (1 - s max F(cos_i)), the max over RGB as in
+  KHR_materials_specular's max_value, which the same discussion names: symmetric in the two
+  directions (reciprocal), energy conserving, and exactly 1 when s = 0. The clearcoat couples to
+  what is below it the same way, with its own F. The layers themselves keep F(wo . h), the
+  microfacet's own Fresnel factor. The price, which Burley notes: darker grazing angles.
 - Transmission is thin-walled, which is what glTF means without KHR_materials_volume: the
   surface is two back-to-back interfaces, a ray passes straight through, blurred by roughness.
   The transmission lobe is the specular lobe mirrored through the surface plane (glTF's
@@ -35,15 +37,17 @@ energy conserving"; its section "Coupling Diffuse and Specular Reflection"):
   through F0 = ((ior - 1) / (ior + 1))^2, the same for eta and 1 / eta, so which side was hit
   does not matter.
 
-Roughness 0 (an alpha below MIN_ALPHA) makes the specular, metal and transmission lobes deltas,
-and a clearcoat alpha below it the coat's. `principled_eval` and `principled_pdf` cover the
+Roughness 0 (both alphas below MIN_ALPHA; one alone below it is raised to it, as the conductor
+does) makes the specular, metal and transmission lobes deltas, and a clearcoat alpha below it
+the coat's. `principled_eval` and `principled_pdf` cover the
 other lobes only; `principled_sample`'s weight for them is exactly eval / pdf of the whole
 non-delta mixture, and for a delta lobe its value over the probability of choosing it.
 
 The lobe is chosen by u0 in proportion to an estimate of each lobe's share of the reflected
-energy at wo (`lobe_probabilities`): Fresnel factors at cos theta_o in place of wo . h. A
-lobe that can be non-zero is never given probability 0 (the specular floor below), so the
-estimator stays unbiased whatever the estimate gets wrong.
+energy at wo (`lobe_probabilities`): Fresnel factors at cos theta_o in place of wo . h, and a
+white base (the density is asked without the colour). A lobe that can be non-zero is never
+given probability 0 (the specular floor below), so the estimator stays unbiased whatever the
+estimate gets wrong.
 """
 
 import math
@@ -115,20 +119,45 @@ def reflection_pdf(ax, ay, wo, h):
 
 
 @target.device
-def lobe_probabilities(metallic, transmission, clearcoat, specular, eta, base, cos_o, rough):
+def layer_f0(eta, specular_color):
+    """The specular layer's RGB reflectance at normal incidence: F0 of the index times
+    KHR_materials_specular's colour, clamped to 1 (its f90 stays 1)."""
+    f0 = dielectric_f0(eta)
+    return (min(1.0, f0 * specular_color[0]), min(1.0, f0 * specular_color[1]), min(1.0, f0 * specular_color[2]))
+
+
+@target.device
+def layer_share(specular, f0_rgb, cos):
+    """What the specular layer takes of the light at cos theta before the base gets the rest:
+    specular x the largest channel of its Fresnel factor (KHR_materials_specular's max_value,
+    so the base is never tinted by the complement of the specular colour)."""
+    f = schlick(f0_rgb, cos)
+    return specular * max(f[0], f[1], f[2])
+
+
+@target.device
+def is_rough(ax, ay):
+    """Whether the specular lobes are GGX rather than a mirror (and straight through): as for the
+    conductor, a lobe is smooth only when both widths are below MIN_ALPHA."""
+    return max(ax, ay) >= MIN_ALPHA
+
+
+@target.device
+def lobe_probabilities(metallic, transmission, clearcoat, specular, f0_rgb, cos_o, rough):
     """(diffuse, specular, transmission, clearcoat) choice probabilities at cos theta_o, summing
     to 1, or all 0 when the material reflects nothing. `rough`: whether the specular lobe is
-    GGX (then it gets at least SPECULAR_FLOOR) or a mirror (whose value at wo is exact)."""
+    GGX (then it gets at least SPECULAR_FLOOR) or a mirror (whose value at wo is exact).
+
+    The base colour is not read: the interface asks a material's density without its colour
+    (`pdf_bsdf`), so the choice weighs the lobes as if the base were white, and a metal's
+    Fresnel factor as 1."""
     floor = SPECULAR_FLOOR if rough else 0.0
     f_coat = clearcoat * schlick1(COAT_F0, cos_o)
     under_coat = 1.0 - f_coat
-    f_layer = specular * schlick1(dielectric_f0(eta), cos_o)
-    f_metal = schlick((base[0], base[1], base[2]), cos_o)
-    metal_mean = (f_metal[0] + f_metal[1] + f_metal[2]) / 3.0
-    w_spec = under_coat * ((1.0 - metallic) * specular * max(f_layer, floor)
-                           + metallic * max(metal_mean, floor))
-    base_mean = max(0.0, (base[0] + base[1] + base[2]) / 3.0)
-    under_layer = under_coat * (1.0 - metallic) * (1.0 - f_layer) * base_mean
+    f_layer = schlick(f0_rgb, cos_o)
+    layer_mean = (f_layer[0] + f_layer[1] + f_layer[2]) / 3.0
+    w_spec = under_coat * ((1.0 - metallic) * specular * max(layer_mean, floor) + metallic)
+    under_layer = under_coat * (1.0 - metallic) * (1.0 - layer_share(specular, f0_rgb, cos_o))
     w_diffuse = under_layer * (1.0 - transmission)
     w_trans = under_layer * transmission
     total = w_diffuse + w_spec + w_trans + f_coat
@@ -138,7 +167,8 @@ def lobe_probabilities(metallic, transmission, clearcoat, specular, eta, base, c
 
 
 @target.device
-def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo, wi):
+def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base, correlated,
+                    wo, wi):
     """f(wo, wi) . |cos theta_i| of the non-delta lobes, RGB: 0 where wo.z <= 0 or wi.z = 0.
 
     Reflection (wi.z > 0) is reciprocal; transmission (wi.z < 0) goes through the mirrored
@@ -147,10 +177,12 @@ def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specula
         return _ZERO
     cos_o = min(wo[2], 1.0)
     cos_i = min(abs(wi[2]), 1.0)
-    f0 = dielectric_f0(eta)
+    f0 = layer_f0(eta, specular_color)
     coat = (1.0 - clearcoat * schlick1(COAT_F0, cos_o)) * (1.0 - clearcoat * schlick1(COAT_F0, cos_i))
-    under_layer = (1.0 - specular * schlick1(f0, cos_o)) * (1.0 - specular * schlick1(f0, cos_i))
-    rough = ax >= MIN_ALPHA and ay >= MIN_ALPHA
+    under_layer = (1.0 - layer_share(specular, f0, cos_o)) * (1.0 - layer_share(specular, f0, cos_i))
+    rough = is_rough(ax, ay)
+    ax = max(ax, MIN_ALPHA)
+    ay = max(ay, MIN_ALPHA)
     if wi[2] < 0.0:
         if not (rough and transmission > 0.0 and metallic < 1.0):
             return _ZERO
@@ -166,11 +198,12 @@ def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specula
     cos_oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
     if rough:
         spec = microfacet_value(ax, ay, correlated, wo, wi, h)
-        layer = (1.0 - metallic) * specular * schlick1(f0, cos_oh)
+        layer = schlick(f0, cos_oh)
+        dielectric = (1.0 - metallic) * specular
         f_metal = schlick((base[0], base[1], base[2]), cos_oh)
-        r += spec * (layer + metallic * f_metal[0])
-        g += spec * (layer + metallic * f_metal[1])
-        b += spec * (layer + metallic * f_metal[2])
+        r += spec * (dielectric * layer[0] + metallic * f_metal[0])
+        g += spec * (dielectric * layer[1] + metallic * f_metal[1])
+        b += spec * (dielectric * layer[2] + metallic * f_metal[2])
     r *= coat
     g *= coat
     b *= coat
@@ -183,15 +216,19 @@ def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specula
 
 
 @target.device
-def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo, wi):
+def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base, correlated,
+                   wo, wi):
     """The density per solid angle with which `principled_sample` gives wi through a non-delta
     lobe: the choice probabilities times each lobe's density, summed (a delta lobe's share
-    missing, so it integrates to less than 1 when there is one)."""
+    missing, so it integrates to less than 1 when there is one). `base` is not read (see
+    `lobe_probabilities`): it is there so that the three functions take the same arguments."""
     if not wo[2] > 0.0 or wi[2] == 0.0:
         return 0.0
-    rough = ax >= MIN_ALPHA and ay >= MIN_ALPHA
-    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, eta, base,
-                                                           min(wo[2], 1.0), rough)
+    rough = is_rough(ax, ay)
+    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular,
+                                                           layer_f0(eta, specular_color), min(wo[2], 1.0), rough)
+    ax = max(ax, MIN_ALPHA)
+    ay = max(ay, MIN_ALPHA)
     if wi[2] < 0.0:
         if not (rough and p_trans > 0.0):
             return 0.0
@@ -207,8 +244,15 @@ def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular
 
 
 @target.device
-def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo,
-                      u0, u1, u2):
+def principled_has_density(ax, ay, metallic, transmission, clearcoat, cc_alpha):
+    """Whether some lobe is not a delta, so that light sampling serves the material: the diffuse
+    base (unless metallic or transmission is 1), rough specular lobes or a rough coat."""
+    return (metallic < 1.0 and transmission < 1.0) or is_rough(ax, ay) or (clearcoat > 0.0 and cc_alpha >= MIN_ALPHA)
+
+
+@target.device
+def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
+                      correlated, wo, u0, u1, u2):
     """(wi, weight, pdf, delta): a direction from the lobe u0 chooses (`lobe_probabilities`),
     u1 and u2 drawing its cosine direction or microfacet normal.
 
@@ -221,12 +265,14 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
     if not wo[2] > 0.0:
         return fail
     cos_o = min(wo[2], 1.0)
-    rough = ax >= MIN_ALPHA and ay >= MIN_ALPHA
-    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, eta, base, cos_o,
-                                                           rough)
-    mirror = (-wo[0], -wo[1], wo[2])
+    rough = is_rough(ax, ay)
+    f0 = layer_f0(eta, specular_color)
+    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, f0, cos_o, rough)
     if p_diffuse + p_spec + p_trans + p_coat == 0.0:
         return fail
+    wx = max(ax, MIN_ALPHA)
+    wy = max(ay, MIN_ALPHA)
+    mirror = (-wo[0], -wo[1], wo[2])
     # The lobe u0 falls in; a u0 past the rounded sum of the shares goes to the last lobe there is.
     lobe = 3 if p_coat > 0.0 else (2 if p_trans > 0.0 else (1 if p_spec > 0.0 else 0))
     if u0 < p_diffuse:
@@ -239,22 +285,24 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
         wi = cosine_direction(u1, u2)
     elif lobe == 1:
         if not rough:
-            # The specular layer and the metal as one mirror: both their Fresnel factors at wo.z.
+            # The specular layer and the metal as one mirror: their Fresnel factors at wo.z.
             coat = 1.0 - clearcoat * schlick1(COAT_F0, cos_o)
             k = coat * coat / p_spec
-            layer = (1.0 - metallic) * specular * schlick1(dielectric_f0(eta), cos_o)
+            dielectric = (1.0 - metallic) * specular
+            layer = schlick(f0, cos_o)
             f_metal = schlick((base[0], base[1], base[2]), cos_o)
-            weight = ((layer + metallic * f_metal[0]) * k, (layer + metallic * f_metal[1]) * k,
-                      (layer + metallic * f_metal[2]) * k)
+            weight = ((dielectric * layer[0] + metallic * f_metal[0]) * k, (dielectric * layer[1] + metallic * f_metal[1]) * k,
+                      (dielectric * layer[2] + metallic * f_metal[2]) * k)
             return mirror, weight, 0.0, True
-        wi = _reflect(wo, sample_visible_normal(ax, ay, wo, u1, u2))
+        wi = _reflect(wo, sample_visible_normal(wx, wy, wo, u1, u2))
     elif lobe == 2:
         if not rough:
+            # Straight through both faces: the base's share at wo.z on the way in and on the way out.
             coat = 1.0 - clearcoat * schlick1(COAT_F0, cos_o)
-            under_layer = 1.0 - specular * schlick1(dielectric_f0(eta), cos_o)
+            under_layer = 1.0 - layer_share(specular, f0, cos_o)
             k = (1.0 - metallic) * transmission * under_layer * under_layer * coat * coat / p_trans
             return (-wo[0], -wo[1], -wo[2]), (base[0] * k, base[1] * k, base[2] * k), 0.0, True
-        wr = _reflect(wo, sample_visible_normal(ax, ay, wo, u1, u2))
+        wr = _reflect(wo, sample_visible_normal(wx, wy, wo, u1, u2))
         wi = (wr[0], wr[1], -wr[2])
     else:
         if cc_alpha < MIN_ALPHA:
@@ -264,10 +312,12 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
     if (wi[2] < 0.0) != (lobe == 2) or wi[2] == 0.0:
         # A reflection off a microfacet that leaves below the surface: the surface shadows it.
         return fail
-    pdf = principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo, wi)
+    pdf = principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
+                         correlated, wo, wi)
     if not pdf > 0.0:
         return fail
-    f = principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, eta, base, correlated, wo, wi)
+    f = principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
+                        correlated, wo, wi)
     return wi, (f[0] / pdf, f[1] / pdf, f[2] / pdf), pdf, False
 
 

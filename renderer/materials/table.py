@@ -1,5 +1,7 @@
 """The material table: type codes, the two row layouts, and each material model's rows."""
 
+from scenefmt.materials import emits
+
 from ..columns import Column, Layout
 
 # Type codes. The books' materials first; the microfacet families from CONDUCTOR on, so that one
@@ -39,7 +41,7 @@ MATERIAL_I = Layout("mat_i", "int32", [
                                              "the GGX width"),
     Column("normal_map", 1, "texture row of a tangent-space normal map, -1 for none"),
     Column("bump_map", 1, "texture row of a height field, -1 for none"),
-    Column("emission", 1, "principled: texture row of the emitted colour, -1 for none"),
+    Column("emission", 1, "principled: texture row of the emitted colour, -1 for none (also for a black one)"),
     Column("correlated", 1, "microfacet kinds: 1 for the height-correlated Smith term, 0 for the separable one"),
     Column("nonlinear", 1, "plastic: 1 to account for the colour shift of internal bounces"),
 ])
@@ -105,7 +107,8 @@ def material_rows(model, texture: int, texture_rows: dict | None = None) -> tupl
         kind=CODES[model.type], texture=texture,
         param_texture=[s[1] for s in slots], param_channel=[s[2] for s in slots], param_squared=[s[3] for s in slots],
         normal_map=texture_rows.get("normal_map", -1), bump_map=texture_rows.get("bump_map", -1),
-        emission=texture_rows.get("emission", -1) if model.type == "principled" else -1,
+        # -1 unless the material sends light: `dispatch.emits` reads this column.
+        emission=texture_rows.get("emission", -1) if model.type == "principled" and emits(model) else -1,
         correlated=int(getattr(model, "shadowing", "correlated") == "correlated"),
         nonlinear=int(getattr(model, "nonlinear", False)),
     )

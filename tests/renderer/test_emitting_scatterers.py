@@ -3,7 +3,7 @@
 The integrator adds an emitter's radiance and then asks the material interface whether it
 `scatters`: the books' diffuse light does not (the path ends there, as before), every other
 material does. The light category finds its area lights by asking `emits` (through
-`emitting_rows`) and their radiance by asking `emitted`, so neither it nor the integrator names
+`emitting_rows`) and their radiance by asking `emitted_at`, so neither it nor the integrator names
 a material kind, and a new kind that emits is a light, sampled and weighted by MIS, at once.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from renderer import target
 
-from renderer.materials import CODES, DIFFUSE_LIGHT, MATERIAL_I, emitting_rows, scatters
+from renderer.materials import CODES, MATERIAL_I, emitting_rows, scatters
 from tests.renderer.test_material_interface import kind_names, names_in
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -30,22 +30,39 @@ def _scatters_of(mat_i):
 
 
 def every_kind():
+    """Each kind's row as material_rows writes it when it sends no light (emission -1), and a
+    principled one whose emission is texture row 0."""
     names = sorted(CODES)
-    return names, np.array([MATERIAL_I.row(kind=CODES[n]) for n in names], np.int32)
+    rows = [MATERIAL_I.row(kind=CODES[n], emission=-1) for n in names]
+    rows.append(MATERIAL_I.row(kind=CODES["principled"], emission=0))
+    return names + ["emitting principled"], np.array(rows, np.int32)
 
 
-def test_only_the_books_light_emits_and_does_not_scatter():
+def test_which_rows_emit_and_which_scatter():
     names, mat_i = every_kind()
     emits = np.zeros(len(names), np.bool_)
     emitting_rows(mat_i, emits)
-    assert dict(zip(names, emits)) == {n: CODES[n] == DIFFUSE_LIGHT for n in names}
-    assert dict(zip(names, _scatters_of(mat_i))) == {n: CODES[n] != DIFFUSE_LIGHT for n in names}
+    assert [n for n, e in zip(names, emits) if e] == ["diffuse_light", "emitting principled"]
+    assert [n for n, sc in zip(names, _scatters_of(mat_i)) if not sc] == ["diffuse_light"]
+
+
+def test_a_black_or_weak_emission_is_no_light():
+    """table.py writes an emission row only for a principled material that sends light."""
+    from scenefmt.materials import Principled, emits
+    from renderer.materials.table import MAT_EMISSION, material_rows
+
+    def row(**kw):
+        return material_rows(Principled(**kw), 0, {"emission": 5})[0][MAT_EMISSION]
+
+    assert not emits(Principled()) and row() == -1
+    assert not emits(Principled(emission=(2.0, 1.0, 0.0), emission_strength=0)) and row(emission_strength=0) == -1
+    assert emits(Principled(emission=(2.0, 1.0, 0.0))) and row(emission=(2.0, 1.0, 0.0)) == 5
 
 
 def test_the_lights_name_no_material_kind():
     """renderer/lights.py asks `emits` and `emitted`, never which kind of material emits."""
     used = names_in((ROOT / "renderer" / "lights.py").read_text())
-    assert {"emitting_rows", "emitted"} <= used
+    assert {"emitting_rows", "emitted_at"} <= used
     material_kinds = kind_names(MATERIAL_I) | {"CODES", "MAT_KIND"}
     assert "DIFFUSE_LIGHT" in material_kinds
     assert used & material_kinds == set()

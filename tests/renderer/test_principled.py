@@ -31,12 +31,13 @@ WHITE = (1.0, 1.0, 1.0)
 IOR = 1.5
 
 
-def params(alpha=0.3, metallic=0.0, transmission=0.0, clearcoat=0.0, cc_alpha=0.1, specular=1.0, eta=IOR,
-           base=BASE, correlated=True, ay=None):
+def params(alpha=0.3, metallic=0.0, transmission=0.0, clearcoat=0.0, cc_alpha=0.1, specular=1.0, specular_color=WHITE,
+           eta=IOR, base=BASE, correlated=True, ay=None):
     """The argument list of the principled functions before wo (ax, ay, metallic, transmission,
-    clearcoat, cc_alpha, specular, eta, base, correlated)."""
+    clearcoat, cc_alpha, specular, specular_color, eta, base, correlated)."""
     return (float(alpha), float(alpha if ay is None else ay), float(metallic), float(transmission), float(clearcoat),
-            float(cc_alpha), float(specular), float(eta), tuple(float(c) for c in base), bool(correlated))
+            float(cc_alpha), float(specular), tuple(float(c) for c in specular_color), float(eta),
+            tuple(float(c) for c in base), bool(correlated))
 
 
 def direction(theta, phi=0.0):
@@ -54,31 +55,32 @@ GRAZING = direction(math.radians(84.0), 2.0)
 @numba.njit(cache=False)
 def _samples(p, wo, us):
     """Rows (wi, weight, pdf, delta, eval at wi, pdf at wi) of principled_sample for each row of us."""
-    ax, ay, m, t, c, cca, s, eta, base, corr = p
+    ax, ay, m, t, c, cca, s, sc, eta, base, corr = p
     out = np.zeros((us.shape[0], 12))
     for k in range(us.shape[0]):
-        wi, w, pdf, delta = pr.principled_sample(ax, ay, m, t, c, cca, s, eta, base, corr, wo, us[k, 0], us[k, 1], us[k, 2])
+        wi, w, pdf, delta = pr.principled_sample(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, us[k, 0], us[k, 1],
+                                                 us[k, 2])
         out[k, 0], out[k, 1], out[k, 2] = wi
         out[k, 3], out[k, 4], out[k, 5] = w
         out[k, 6] = pdf
         out[k, 7] = 1.0 if delta else 0.0
         if wi[0] != 0.0 or wi[1] != 0.0 or wi[2] != 0.0:
-            f = pr.principled_eval(ax, ay, m, t, c, cca, s, eta, base, corr, wo, wi)
+            f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
             out[k, 8], out[k, 9], out[k, 10] = f
-            out[k, 11] = pr.principled_pdf(ax, ay, m, t, c, cca, s, eta, base, corr, wo, wi)
+            out[k, 11] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
     return out
 
 
 @numba.njit(cache=False)
 def _values(p, wo, wis):
     """Rows (eval r, g, b, pdf) for each direction of wis."""
-    ax, ay, m, t, c, cca, s, eta, base, corr = p
+    ax, ay, m, t, c, cca, s, sc, eta, base, corr = p
     out = np.zeros((wis.shape[0], 4))
     for k in range(wis.shape[0]):
         wi = (wis[k, 0], wis[k, 1], wis[k, 2])
-        f = pr.principled_eval(ax, ay, m, t, c, cca, s, eta, base, corr, wo, wi)
+        f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
         out[k, 0], out[k, 1], out[k, 2] = f
-        out[k, 3] = pr.principled_pdf(ax, ay, m, t, c, cca, s, eta, base, corr, wo, wi)
+        out[k, 3] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
     return out
 
 
@@ -145,7 +147,8 @@ VARIANTS = {
     "metallic": {"metallic": 1.0},
     "transmissive": {"transmission": 0.8},
     "clearcoated": {"clearcoat": 1.0, "cc_alpha": 0.15},
-    "everything": {"metallic": 0.3, "transmission": 0.5, "clearcoat": 0.6, "cc_alpha": 0.25, "specular": 0.7},
+    "everything": {"metallic": 0.3, "transmission": 0.5, "clearcoat": 0.6, "cc_alpha": 0.25, "specular": 0.7,
+                   "specular_color": (1.0, 0.4, 2.0)},
 }
 
 
@@ -316,7 +319,7 @@ def test_smooth_lobes_weights():
     through = s[:, 7].astype(bool) & (s[:, 2] < 0)
     mirror = s[:, 7].astype(bool) & (s[:, 2] > 0)
     assert through.any() and mirror.any() and (through | mirror).all()
-    probs = pr.lobe_probabilities(0.0, 1.0, 0.0, 1.0, IOR, BASE, cos_o, False)
+    probs = pr.lobe_probabilities(0.0, 1.0, 0.0, 1.0, pr.layer_f0(IOR, WHITE), cos_o, False)
     np.testing.assert_allclose(s[mirror, 3:6], f / probs[1], rtol=1e-12)
     np.testing.assert_allclose(s[through, 3:6], np.tile(np.array(BASE) * (1 - f) ** 2 / probs[2], (through.sum(), 1)),
                                rtol=1e-12)
@@ -339,14 +342,14 @@ def test_finite_at_the_edges(alpha, eta):
     roughness 0 and 1, ior 1: finite and non-negative, black and 0 where wo is not above."""
     us = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5], [1 - 2 ** -53] * 3, [0.999, 1e-12, 0.999], [0.3, 1 - 2 ** -53, 0.0],
                    [0.6, 0.25, 1 - 2 ** -53], [0.9, 0.0, 0.75]])
-    for variant in VARIANTS.values():
-        kw = dict(variant)
-        kw.setdefault("cc_alpha", alpha)
-        p = params(alpha=alpha, eta=eta, **kw)
+    cases = [params(alpha=alpha, eta=eta, **{"cc_alpha": alpha, **kw}) for kw in VARIANTS.values()]
+    # Anisotropic with one width below MIN_ALPHA (raised to it, as the conductor does).
+    cases += [params(alpha=0.3, ay=alpha, eta=eta, transmission=0.5, clearcoat=0.5, cc_alpha=alpha)]
+    for p in cases:
         for wo in EDGE_DIRECTIONS:
             s = _samples(p, wo, us)
             v = _values(p, wo, np.array(EDGE_DIRECTIONS))
-            assert np.isfinite(s).all() and np.isfinite(v).all(), (kw, wo)
+            assert np.isfinite(s).all() and np.isfinite(v).all(), (p, wo)
             assert (s[:, 3:7] >= 0).all() and (v >= 0).all()
             if not wo[2] > 0:
                 assert (s == 0).all() and (v == 0).all()

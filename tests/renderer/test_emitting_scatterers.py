@@ -77,3 +77,22 @@ def test_the_integrator_ends_a_path_only_at_an_emitter_that_does_not_scatter():
     guarded = [n for n in at_emitter.body if isinstance(n, ast.If) and "scatters" in names_in(ast.unparse(n.test))]
     assert not breaks and len(guarded) == 1
     assert isinstance(guarded[0].body[-1], ast.Break)
+
+
+def test_a_glowing_principled_surface_switches_the_emitters_and_lights_on():
+    """`rt validate`'s effects (and so the kernel's flags) count a principled material that sends
+    light as an emitter, and one whose emission is black as none."""
+    from scenefmt import models as m
+    from scenefmt.effects import summarize
+    from scenefmt.graph import build_graph
+    from scenefmt.materials import Principled
+
+    def effects(material):
+        scene = m.Scene(camera=m.Camera(look_from=(0, 1, 3), look_at=(0, 0, 0)), image=m.Image(width=8, height=8),
+                        shapes=[m.Sphere(center=(0, 0, 0), radius=1, material=material)])
+        return {e.key: e.on for e in summarize(build_graph(scene)).effects}
+
+    glowing = effects(Principled(emission=(1.0, 0.5, 0.2), emission_strength=3.0))
+    assert glowing["emitters"] and glowing["lights"] and glowing["principled"]
+    dark = effects(Principled())
+    assert not dark["emitters"] and not dark["lights"] and dark["principled"]

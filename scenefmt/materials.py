@@ -322,6 +322,7 @@ class Principled(SurfaceMaps):
     clearcoat_roughness: ScalarSlot = Field(0.0, description="Perceptual roughness of the clear coat.")
     emission: TextureSlot = Field((0.0, 0.0, 0.0), description="Emitted radiance before `emission_strength`: a colour or a texture.")
     emission_strength: Number = Field(1.0, ge=0, description="Multiplies `emission` (KHR_materials_emissive_strength).")
+    thin_walled: StrictBool = Field(False, description="Transmission through a thin sheet (glTF without KHR_materials_volume: rays pass straight through, blurred by roughness) instead of refraction into a solid (false: a closed shape reads as glass).")
     shadowing: Shadowing = Field("correlated", description=SHADOWING_DESCRIPTION)
 
     @model_validator(mode="after")

@@ -14,7 +14,8 @@ from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, condu
 from .principled import principled_eval, principled_has_density, principled_pdf, principled_sample
 from .rough_dielectric import (rough_dielectric_eval, rough_dielectric_is_smooth, rough_dielectric_pdf,
                                rough_dielectric_sample)
-from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_SPECULAR_COLOR, ROUGH_DIELECTRIC, SLOT_ALPHA_U,
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_SPECULAR_COLOR, MAT_THIN_WALLED, ROUGH_DIELECTRIC,
+                    SLOT_ALPHA_U,
                     SLOT_ALPHA_V, SLOT_CLEARCOAT, SLOT_CLEARCOAT_ALPHA, SLOT_METALLIC, SLOT_SPECULAR, SLOT_TRANSMISSION,
                     THIN_DIELECTRIC)
 from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
@@ -51,11 +52,10 @@ def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1
         # A sheet has air on both sides: its ior, whichever side was hit.
         return thin_dielectric_sample(mat_f[mat, MAT_IOR], color, wo, u0, u1, u2)
     if PRINCIPLED and kind == PRINCIPLED_KIND:
-        # Thin-walled: the index enters through F0 alone, the same from either side.
         return principled_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
                                  params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
-                                 params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], color,
-                                 correlated, wo, u0, u1, u2)
+                                 params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                                 mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -72,8 +72,8 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
     if PRINCIPLED and kind == PRINCIPLED_KIND:
         return principled_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
                                params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
-                               params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], color,
-                               correlated, wo, wi)
+                               params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                               mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, wi)
     return _BLACK
 
 
@@ -90,8 +90,8 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
     if PRINCIPLED and kind == PRINCIPLED_KIND:
         return principled_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
                               params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
-                              params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), mat_f[mat, MAT_IOR], _BLACK,
-                              correlated, wo, wi)
+                              params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                              mat_i[mat, MAT_THIN_WALLED] != 0, _BLACK, correlated, wo, wi)
     return 0.0
 
 

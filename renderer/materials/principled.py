@@ -15,8 +15,8 @@ The lobes and how glTF's Appendix B mixes them:
 - clearcoat: a second GGX layer of index 1.5 (F0 = 0.04) and width cc_alpha, weighted by
   clearcoat * Schlick(0.04, |wo . h|), over the material.
 
-Two choices differ from the specification's sample code, both for physical plausibility, which
-the specification itself asks of a path tracer ("the BRDF MUST be positive, reciprocal, and
+Two choices differ from the specification's sample code, for physical plausibility, which the
+specification itself asks of a path tracer ("the BRDF MUST be positive, reciprocal, and
 energy conserving"; its section "Coupling Diffuse and Specular Reflection"):
 
 - Coupling. glTF's `fresnel_mix` weights the base by 1 - F(wo . h). Its own discussion notes
@@ -27,21 +27,25 @@ energy conserving"; its section "Coupling Diffuse and Specular Reflection"):
   directions (reciprocal), energy conserving, and exactly 1 when s = 0. The clearcoat couples to
   what is below it the same way, with its own F. The layers themselves keep F(wo . h), the
   microfacet's own Fresnel factor. The price, which Burley notes: darker grazing angles.
-- Transmission is thin-walled, which is what glTF means without KHR_materials_volume: the
-  surface is two back-to-back interfaces, a ray passes straight through, blurred by roughness.
-  The transmission lobe is the specular lobe mirrored through the surface plane (glTF's
-  H_T = normalize(V + L mirrored)), tinted by the base colour. With roughness 0 it is a delta
-  straight through (wi = -wo). A closed sphere of it reads as a soap bubble, not a lens: volume
-  refraction (the rough dielectric's BTDF) is not offered here, as that lobe was not available
-  to reuse when this was written. Since the two faces are symmetric, the index enters only
-  through F0 = ((ior - 1) / (ior + 1))^2, the same for eta and 1 / eta, so which side was hit
-  does not matter.
+- Transmission comes in two forms, chosen by the row's `thin_walled` flag:
+  - thin-walled, glTF's meaning without KHR_materials_volume: the surface is two back-to-back
+    interfaces and a ray passes straight through, blurred by roughness. The lobe is the specular
+    lobe mirrored through the surface plane (glTF's H_T = normalize(V + L mirrored)), tinted by
+    the base colour, under the specular layer like the diffuse base it mixes with; a delta
+    straight through (wi = -wo) at roughness 0. The index enters only through F0, the same for
+    eta and 1 / eta. A closed sphere of it reads as a soap bubble.
+  - volumetric (the default of the file format: a closed shape of principled glass reads as
+    glass, as in Blender): the transmitted share (1 - metallic) transmission is the rough
+    dielectric of rough_dielectric.py (Walter et al. 2007: its own exact Fresnel reflection and
+    its refraction, eta = far index / near index by the side hit), its refraction tinted by the
+    base colour; the specular layer and the diffuse base share the rest, (1 - transmission).
+    With transmission 1 and metallic 0 the material is that rough dielectric (under any coat).
 
 Roughness 0 (both alphas below MIN_ALPHA; one alone below it is raised to it, as the conductor
 does) makes the specular, metal and transmission lobes deltas, and a clearcoat alpha below it
-the coat's. `principled_eval` and `principled_pdf` cover the
-other lobes only; `principled_sample`'s weight for them is exactly eval / pdf of the whole
-non-delta mixture, and for a delta lobe its value over the probability of choosing it.
+the coat's. `principled_eval` and `principled_pdf` cover the other lobes only;
+`principled_sample`'s weight for them is exactly eval / pdf of the whole non-delta mixture, and
+for a delta lobe its value over the probability of choosing it.
 
 The lobe is chosen by u0 in proportion to an estimate of each lobe's share of the reflected
 energy at wo (`lobe_probabilities`): Fresnel factors at cos theta_o in place of wo . h, and a
@@ -56,6 +60,7 @@ from .. import target
 
 from .fresnel import schlick
 from .microfacet import MIN_ALPHA, ggx_d, sample_visible_normal, smith_g, visible_normal_pdf
+from .rough_dielectric import rough_dielectric_sample, rough_dielectric_value_and_pdf
 
 # glTF's clearcoat is a layer of index 1.5: F0 = ((1.5 - 1) / (1.5 + 1))^2.
 COAT_F0 = 0.04
@@ -65,6 +70,7 @@ COAT_F0 = 0.04
 SPECULAR_FLOOR = 0.02
 
 _ZERO = (0.0, 0.0, 0.0)
+_WHITE = (1.0, 1.0, 1.0)
 
 
 @target.device
@@ -143,23 +149,30 @@ def is_rough(ax, ay):
 
 
 @target.device
-def lobe_probabilities(metallic, transmission, clearcoat, specular, f0_rgb, cos_o, rough):
+def lobe_probabilities(metallic, transmission, clearcoat, specular, f0_rgb, thin_walled, cos_o, rough):
     """(diffuse, specular, transmission, clearcoat) choice probabilities at cos theta_o, summing
     to 1, or all 0 when the material reflects nothing. `rough`: whether the specular lobe is
     GGX (then it gets at least SPECULAR_FLOOR) or a mirror (whose value at wo is exact).
 
     The base colour is not read: the interface asks a material's density without its colour
     (`pdf_bsdf`), so the choice weighs the lobes as if the base were white, and a metal's
-    Fresnel factor as 1."""
+    Fresnel factor as 1. The volumetric transmission lobe is a whole dielectric (its own
+    reflection included), so it takes its share from beside the layer, not from under it."""
     floor = SPECULAR_FLOOR if rough else 0.0
     f_coat = clearcoat * schlick1(COAT_F0, cos_o)
     under_coat = 1.0 - f_coat
     f_layer = schlick(f0_rgb, cos_o)
     layer_mean = (f_layer[0] + f_layer[1] + f_layer[2]) / 3.0
-    w_spec = under_coat * ((1.0 - metallic) * specular * max(layer_mean, floor) + metallic)
     under_layer = under_coat * (1.0 - metallic) * (1.0 - layer_share(specular, f0_rgb, cos_o))
-    w_diffuse = under_layer * (1.0 - transmission)
-    w_trans = under_layer * transmission
+    if thin_walled:
+        w_spec = under_coat * ((1.0 - metallic) * specular * max(layer_mean, floor) + metallic)
+        w_diffuse = under_layer * (1.0 - transmission)
+        w_trans = under_layer * transmission
+    else:
+        opaque = (1.0 - metallic) * (1.0 - transmission)
+        w_spec = under_coat * (opaque * specular * max(layer_mean, floor) + metallic)
+        w_diffuse = under_layer * (1.0 - transmission)
+        w_trans = under_coat * (1.0 - metallic) * transmission
     total = w_diffuse + w_spec + w_trans + f_coat
     if not total > 0.0:
         return 0.0, 0.0, 0.0, 0.0
@@ -167,12 +180,20 @@ def lobe_probabilities(metallic, transmission, clearcoat, specular, f0_rgb, cos_
 
 
 @target.device
-def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base, correlated,
-                    wo, wi):
+def glass_value_and_pdf(ax, ay, eta, correlated, wo, wi):
+    """The volumetric transmission lobe: the rough dielectric's (f . |cos theta_i|, pdf), both 0
+    where it is smooth (its deltas)."""
+    return rough_dielectric_value_and_pdf(ax, ay, eta, correlated, wo, wi)
+
+
+@target.device
+def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, thin_walled, base,
+                    correlated, wo, wi):
     """f(wo, wi) . |cos theta_i| of the non-delta lobes, RGB: 0 where wo.z <= 0 or wi.z = 0.
 
     Reflection (wi.z > 0) is reciprocal; transmission (wi.z < 0) goes through the mirrored
-    specular lobe. See the module's docstring for the model."""
+    specular lobe (thin-walled) or the rough dielectric's refraction (volumetric). See the
+    module's docstring for the model."""
     if not wo[2] > 0.0 or wi[2] == 0.0:
         return _ZERO
     cos_o = min(wo[2], 1.0)
@@ -181,25 +202,35 @@ def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specula
     coat = (1.0 - clearcoat * schlick1(COAT_F0, cos_o)) * (1.0 - clearcoat * schlick1(COAT_F0, cos_i))
     under_layer = (1.0 - layer_share(specular, f0, cos_o)) * (1.0 - layer_share(specular, f0, cos_i))
     rough = is_rough(ax, ay)
+    glass = 0.0 if thin_walled else (1.0 - metallic) * transmission
+    if glass > 0.0:
+        value = glass * glass_value_and_pdf(ax, ay, eta, correlated, wo, wi)[0]
+    else:
+        value = 0.0
     ax = max(ax, MIN_ALPHA)
     ay = max(ay, MIN_ALPHA)
     if wi[2] < 0.0:
-        if not (rough and transmission > 0.0 and metallic < 1.0):
+        if not thin_walled:
+            # Refraction into (or out of) the volume, tinted by the base colour.
+            k = value * coat
+        elif rough and transmission > 0.0 and metallic < 1.0:
+            mirrored = (wi[0], wi[1], -wi[2])
+            h = half_vector(wo, mirrored)
+            k = (1.0 - metallic) * transmission * under_layer * coat * microfacet_value(ax, ay, correlated, wo, mirrored, h)
+        else:
             return _ZERO
-        mirrored = (wi[0], wi[1], -wi[2])
-        h = half_vector(wo, mirrored)
-        k = (1.0 - metallic) * transmission * under_layer * coat * microfacet_value(ax, ay, correlated, wo, mirrored, h)
         return (base[0] * k, base[1] * k, base[2] * k)
     k_diffuse = (1.0 - metallic) * (1.0 - transmission) * under_layer * cos_i / math.pi
-    r = base[0] * k_diffuse
-    g = base[1] * k_diffuse
-    b = base[2] * k_diffuse
+    r = base[0] * k_diffuse + value
+    g = base[1] * k_diffuse + value
+    b = base[2] * k_diffuse + value
     h = half_vector(wo, wi)
     cos_oh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
     if rough:
         spec = microfacet_value(ax, ay, correlated, wo, wi, h)
         layer = schlick(f0, cos_oh)
-        dielectric = (1.0 - metallic) * specular
+        # Thin-walled, the layer lies over the transmission too; volumetric, the glass reflects by itself.
+        dielectric = (1.0 - metallic) * specular * (1.0 if thin_walled else 1.0 - transmission)
         f_metal = schlick((base[0], base[1], base[2]), cos_oh)
         r += spec * (dielectric * layer[0] + metallic * f_metal[0])
         g += spec * (dielectric * layer[1] + metallic * f_metal[1])
@@ -216,8 +247,8 @@ def principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specula
 
 
 @target.device
-def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base, correlated,
-                   wo, wi):
+def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, thin_walled, base,
+                   correlated, wo, wi):
     """The density per solid angle with which `principled_sample` gives wi through a non-delta
     lobe: the choice probabilities times each lobe's density, summed (a delta lobe's share
     missing, so it integrates to less than 1 when there is one). `base` is not read (see
@@ -226,15 +257,19 @@ def principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular
         return 0.0
     rough = is_rough(ax, ay)
     p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular,
-                                                           layer_f0(eta, specular_color), min(wo[2], 1.0), rough)
+                                                           layer_f0(eta, specular_color), thin_walled, min(wo[2], 1.0),
+                                                           rough)
+    pdf = 0.0
+    if not thin_walled and p_trans > 0.0:
+        pdf = p_trans * glass_value_and_pdf(ax, ay, eta, correlated, wo, wi)[1]
     ax = max(ax, MIN_ALPHA)
     ay = max(ay, MIN_ALPHA)
     if wi[2] < 0.0:
-        if not (rough and p_trans > 0.0):
-            return 0.0
-        mirrored = (wi[0], wi[1], -wi[2])
-        return p_trans * reflection_pdf(ax, ay, wo, half_vector(wo, mirrored))
-    pdf = p_diffuse * wi[2] / math.pi
+        if thin_walled and rough and p_trans > 0.0:
+            mirrored = (wi[0], wi[1], -wi[2])
+            pdf += p_trans * reflection_pdf(ax, ay, wo, half_vector(wo, mirrored))
+        return pdf
+    pdf += p_diffuse * wi[2] / math.pi
     h = half_vector(wo, wi)
     if rough and p_spec > 0.0:
         pdf += p_spec * reflection_pdf(ax, ay, wo, h)
@@ -251,23 +286,25 @@ def principled_has_density(ax, ay, metallic, transmission, clearcoat, cc_alpha):
 
 
 @target.device
-def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
-                      correlated, wo, u0, u1, u2):
+def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, thin_walled,
+                      base, correlated, wo, u0, u1, u2):
     """(wi, weight, pdf, delta): a direction from the lobe u0 chooses (`lobe_probabilities`),
-    u1 and u2 drawing its cosine direction or microfacet normal.
+    u1 and u2 drawing its cosine direction or microfacet normal (and u0, rescaled within the
+    lobe's share, the volumetric glass's choice between reflection and refraction).
 
     A non-delta lobe's sample has weight eval / pdf of the whole non-delta mixture (`principled_eval`
-    over `principled_pdf`); a delta lobe's (mirror or straight through) has that lobe's value over
-    its choice probability, pdf 0 and delta True. A failed sample (wo at or below the surface, a
-    reflection that lands below it, a material that reflects nothing) is direction (0, 0, 0),
-    weight black."""
+    over `principled_pdf`); a delta lobe's (mirror, straight through or a smooth refraction) has
+    that lobe's value over its choice probability, pdf 0 and delta True. A failed sample (wo at
+    or below the surface, a reflection that lands below it, a material that reflects nothing)
+    is direction (0, 0, 0), weight black."""
     fail = (_ZERO, _ZERO, 0.0, False)
     if not wo[2] > 0.0:
         return fail
     cos_o = min(wo[2], 1.0)
     rough = is_rough(ax, ay)
     f0 = layer_f0(eta, specular_color)
-    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, f0, cos_o, rough)
+    p_diffuse, p_spec, p_trans, p_coat = lobe_probabilities(metallic, transmission, clearcoat, specular, f0, thin_walled,
+                                                           cos_o, rough)
     if p_diffuse + p_spec + p_trans + p_coat == 0.0:
         return fail
     wx = max(ax, MIN_ALPHA)
@@ -281,6 +318,7 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
         lobe = 1
     elif u0 < p_diffuse + p_spec + p_trans:
         lobe = 2
+    transmits = lobe == 2
     if lobe == 0:
         wi = cosine_direction(u1, u2)
     elif lobe == 1:
@@ -288,13 +326,27 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
             # The specular layer and the metal as one mirror: their Fresnel factors at wo.z.
             coat = 1.0 - clearcoat * schlick1(COAT_F0, cos_o)
             k = coat * coat / p_spec
-            dielectric = (1.0 - metallic) * specular
+            dielectric = (1.0 - metallic) * specular * (1.0 if thin_walled else 1.0 - transmission)
             layer = schlick(f0, cos_o)
             f_metal = schlick((base[0], base[1], base[2]), cos_o)
             weight = ((dielectric * layer[0] + metallic * f_metal[0]) * k, (dielectric * layer[1] + metallic * f_metal[1]) * k,
                       (dielectric * layer[2] + metallic * f_metal[2]) * k)
             return mirror, weight, 0.0, True
         wi = _reflect(wo, sample_visible_normal(wx, wy, wo, u1, u2))
+    elif lobe == 2 and not thin_walled:
+        # The rough dielectric chooses reflection or refraction with what is left of u0.
+        v0 = min(max((u0 - p_diffuse - p_spec) / p_trans, 0.0), 1.0 - 1e-16)
+        wi, w, _, delta = rough_dielectric_sample(ax, ay, eta, _WHITE, correlated, wo, v0, u1, u2)
+        if wi[0] == 0.0 and wi[1] == 0.0 and wi[2] == 0.0:
+            return fail
+        if delta:
+            cos_i = min(abs(wi[2]), 1.0)
+            k = ((1.0 - metallic) * transmission * (1.0 - clearcoat * schlick1(COAT_F0, cos_o))
+                 * (1.0 - clearcoat * schlick1(COAT_F0, cos_i)) / p_trans)
+            if wi[2] < 0.0:
+                return wi, (w[0] * k * base[0], w[1] * k * base[1], w[2] * k * base[2]), 0.0, True
+            return wi, (w[0] * k, w[1] * k, w[2] * k), 0.0, True
+        transmits = wi[2] < 0.0
     elif lobe == 2:
         if not rough:
             # Straight through both faces: the base's share at wo.z on the way in and on the way out.
@@ -309,15 +361,15 @@ def principled_sample(ax, ay, metallic, transmission, clearcoat, cc_alpha, specu
             c = clearcoat * schlick1(COAT_F0, cos_o) / p_coat
             return mirror, (c, c, c), 0.0, True
         wi = _reflect(wo, sample_visible_normal(cc_alpha, cc_alpha, wo, u1, u2))
-    if (wi[2] < 0.0) != (lobe == 2) or wi[2] == 0.0:
+    if (wi[2] < 0.0) != transmits or wi[2] == 0.0:
         # A reflection off a microfacet that leaves below the surface: the surface shadows it.
         return fail
-    pdf = principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
-                         correlated, wo, wi)
+    pdf = principled_pdf(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, thin_walled,
+                         base, correlated, wo, wi)
     if not pdf > 0.0:
         return fail
-    f = principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, base,
-                        correlated, wo, wi)
+    f = principled_eval(ax, ay, metallic, transmission, clearcoat, cc_alpha, specular, specular_color, eta, thin_walled,
+                        base, correlated, wo, wi)
     return wi, (f[0] / pdf, f[1] / pdf, f[2] / pdf), pdf, False
 
 

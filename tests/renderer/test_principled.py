@@ -32,11 +32,11 @@ IOR = 1.5
 
 
 def params(alpha=0.3, metallic=0.0, transmission=0.0, clearcoat=0.0, cc_alpha=0.1, specular=1.0, specular_color=WHITE,
-           eta=IOR, base=BASE, correlated=True, ay=None):
+           eta=IOR, thin_walled=True, base=BASE, correlated=True, ay=None):
     """The argument list of the principled functions before wo (ax, ay, metallic, transmission,
-    clearcoat, cc_alpha, specular, specular_color, eta, base, correlated)."""
+    clearcoat, cc_alpha, specular, specular_color, eta, thin_walled, base, correlated)."""
     return (float(alpha), float(alpha if ay is None else ay), float(metallic), float(transmission), float(clearcoat),
-            float(cc_alpha), float(specular), tuple(float(c) for c in specular_color), float(eta),
+            float(cc_alpha), float(specular), tuple(float(c) for c in specular_color), float(eta), bool(thin_walled),
             tuple(float(c) for c in base), bool(correlated))
 
 
@@ -55,32 +55,32 @@ GRAZING = direction(math.radians(84.0), 2.0)
 @numba.njit(cache=False)
 def _samples(p, wo, us):
     """Rows (wi, weight, pdf, delta, eval at wi, pdf at wi) of principled_sample for each row of us."""
-    ax, ay, m, t, c, cca, s, sc, eta, base, corr = p
+    ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr = p
     out = np.zeros((us.shape[0], 12))
     for k in range(us.shape[0]):
-        wi, w, pdf, delta = pr.principled_sample(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, us[k, 0], us[k, 1],
-                                                 us[k, 2])
+        wi, w, pdf, delta = pr.principled_sample(ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr, wo, us[k, 0],
+                                                 us[k, 1], us[k, 2])
         out[k, 0], out[k, 1], out[k, 2] = wi
         out[k, 3], out[k, 4], out[k, 5] = w
         out[k, 6] = pdf
         out[k, 7] = 1.0 if delta else 0.0
         if wi[0] != 0.0 or wi[1] != 0.0 or wi[2] != 0.0:
-            f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
+            f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr, wo, wi)
             out[k, 8], out[k, 9], out[k, 10] = f
-            out[k, 11] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
+            out[k, 11] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr, wo, wi)
     return out
 
 
 @numba.njit(cache=False)
 def _values(p, wo, wis):
     """Rows (eval r, g, b, pdf) for each direction of wis."""
-    ax, ay, m, t, c, cca, s, sc, eta, base, corr = p
+    ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr = p
     out = np.zeros((wis.shape[0], 4))
     for k in range(wis.shape[0]):
         wi = (wis[k, 0], wis[k, 1], wis[k, 2])
-        f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
+        f = pr.principled_eval(ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr, wo, wi)
         out[k, 0], out[k, 1], out[k, 2] = f
-        out[k, 3] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, base, corr, wo, wi)
+        out[k, 3] = pr.principled_pdf(ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr, wo, wi)
     return out
 
 
@@ -92,29 +92,39 @@ def draw(p, wo, n, seed):
 # --- the sampler follows its own density ----------------------------------------------------------
 
 # Bins per hemisphere in (t, phi), t = sqrt(theta / (pi / 2)): finer toward the poles, where
-# the specular and transmission lobes peak at a normal view; SUB x SUB midpoints per bin.
-NT, NP, SUB = 24, 24, 16
+# the specular and transmission lobes peak at a normal view. Each bin's integral is a midpoint
+# rule of SUB x SUB points, and of HORIZON_SUB points in t in the bins next to the horizon, where
+# a lobe seen at grazing incidence changes fast (a refraction's density, for one).
+NT, NP, SUB, HORIZON_SUB = 24, 24, 16, 96
 
 
 def _bin_directions():
-    dt, dp = 1.0 / (NT * SUB), 2.0 * math.pi / (NP * SUB)
-    t = (np.arange(NT * SUB) + 0.5) * dt
+    """Unit directions of the upper hemisphere's integration points, their solid angles and bins."""
+    ts, dts, rows = [], [], []
+    for i in range(NT):
+        n = HORIZON_SUB if i >= NT - 2 else SUB
+        ts.append((i + (np.arange(n) + 0.5) / n) / NT)
+        dts.append(np.full(n, 1.0 / (NT * n)))
+        rows.append(np.full(n, i))
+    t, dt, row = np.concatenate(ts), np.concatenate(dts), np.concatenate(rows)
+    dp = 2.0 * math.pi / (NP * SUB)
     phi = (np.arange(NP * SUB) + 0.5) * dp
     tt, pp = np.meshgrid(t, phi, indexing="ij")
     theta = 0.5 * np.pi * tt * tt
-    jac = np.sin(theta) * np.pi * tt * dt * dp  # solid angle of each sub-cell
+    jac = np.sin(theta) * np.pi * tt * dt[:, None] * dp  # solid angle of each point's cell
     dirs = np.stack([np.sin(theta) * np.cos(pp), np.sin(theta) * np.sin(pp), np.cos(theta)], axis=-1).reshape(-1, 3)
-    return dirs, jac.reshape(-1)
+    cell = (row[:, None] * NP + np.arange(NP * SUB)[None, :] // SUB).reshape(-1)
+    return dirs, jac.reshape(-1), cell
 
 
 def cell_probabilities(p, wo):
     """The integral of principled_pdf over each bin of the upper, then the lower hemisphere."""
-    dirs, jac = _bin_directions()
+    dirs, jac, cell = _bin_directions()
     cells = []
     for sign in (1.0, -1.0):
         d = dirs * np.array([1.0, 1.0, sign])
         mass = _values(p, wo, d)[:, 3] * jac
-        cells.append(mass.reshape(NT, SUB, NP, SUB).sum(axis=(1, 3)).ravel())
+        cells.append(np.bincount(cell, weights=mass, minlength=NT * NP))
     return np.concatenate(cells)
 
 
@@ -149,6 +159,10 @@ VARIANTS = {
     "clearcoated": {"clearcoat": 1.0, "cc_alpha": 0.15},
     "everything": {"metallic": 0.3, "transmission": 0.5, "clearcoat": 0.6, "cc_alpha": 0.25, "specular": 0.7,
                    "specular_color": (1.0, 0.4, 2.0)},
+    # Volumetric transmission through the rough dielectric, entering and leaving.
+    "glass": {"transmission": 1.0, "thin_walled": False},
+    "glass_from_inside": {"transmission": 1.0, "thin_walled": False, "eta": 1 / IOR},
+    "frosted_coated": {"transmission": 0.6, "thin_walled": False, "clearcoat": 0.4, "cc_alpha": 0.2, "metallic": 0.2},
 }
 
 
@@ -197,15 +211,16 @@ def test_sampled_weight_is_eval_over_pdf(variant):
             np.testing.assert_allclose(s[rough, 6], s[rough, 11], rtol=1e-12)
             assert (s[rough, 6] > 0).all()
             np.testing.assert_allclose(s[rough, 3:6], s[rough, 8:11] / s[rough, 6][:, None], rtol=1e-12)
-            # A delta sample: no density; the mirror or straight through.
+            # A delta sample: no density; the mirror, straight through or Snell's refraction.
             assert (s[smooth, 6] == 0.0).all()
             if alpha > 0.0:
                 assert variant != "dielectric" or not smooth.any()
             flat = s[smooth]
-            mirror = np.array([-wo[0], -wo[1], wo[2]])
-            through = -np.array(wo)
-            assert (np.all(np.abs(flat[:, 0:3] - mirror) < 1e-15, axis=1)
-                    | np.all(np.abs(flat[:, 0:3] - through) < 1e-15, axis=1)).all()
+            eta = p[8]
+            sin2_t = (1 - wo[2] ** 2) / eta ** 2
+            refracted = np.array([-wo[0] / eta, -wo[1] / eta, -math.sqrt(max(0.0, 1 - sin2_t))])
+            allowed = [np.array([-wo[0], -wo[1], wo[2]]), -np.array(wo), refracted]
+            assert np.any([np.all(np.abs(flat[:, 0:3] - a) < 1e-12, axis=1) for a in allowed], axis=0).all()
             # A failed sample is black.
             assert (s[~ok, 3:6] == 0.0).all()
 
@@ -247,7 +262,7 @@ def furnace(p, wo, n=200_000, seed=SEED + 3):
 @pytest.mark.parametrize("alpha", [0.0, 0.1, 0.5, 1.0])
 def test_white_furnace_energy_at_most_one(variant, alpha):
     kw = dict(VARIANTS[variant])
-    for eta in (1.0, 1.5, 3.0):
+    for eta in [kw.pop("eta")] if "eta" in kw else (1.0, 1.5, 3.0):
         for wo in (NORMAL, OBLIQUE, GRAZING, direction(math.radians(89.5))):
             mean, se = furnace(params(alpha=alpha, base=WHITE, eta=eta, **kw), wo, n=40_000)
             assert np.isfinite(mean).all()
@@ -319,7 +334,7 @@ def test_smooth_lobes_weights():
     through = s[:, 7].astype(bool) & (s[:, 2] < 0)
     mirror = s[:, 7].astype(bool) & (s[:, 2] > 0)
     assert through.any() and mirror.any() and (through | mirror).all()
-    probs = pr.lobe_probabilities(0.0, 1.0, 0.0, 1.0, pr.layer_f0(IOR, WHITE), cos_o, False)
+    probs = pr.lobe_probabilities(0.0, 1.0, 0.0, 1.0, pr.layer_f0(IOR, WHITE), True, cos_o, False)
     np.testing.assert_allclose(s[mirror, 3:6], f / probs[1], rtol=1e-12)
     np.testing.assert_allclose(s[through, 3:6], np.tile(np.array(BASE) * (1 - f) ** 2 / probs[2], (through.sum(), 1)),
                                rtol=1e-12)
@@ -327,6 +342,25 @@ def test_smooth_lobes_weights():
     s = draw(params(alpha=0.0, transmission=1.0, eta=1.0), NORMAL, 1000, SEED + 9)
     np.testing.assert_allclose(s[:, 0:3], np.tile((0.0, 0.0, -1.0), (len(s), 1)), atol=0)
     np.testing.assert_allclose(s[:, 3:6], np.tile(BASE, (len(s), 1)), rtol=1e-12)
+
+
+def test_smooth_volumetric_glass_is_the_books_dielectric():
+    """transmission 1, metallic 0, roughness 0, volumetric: the smooth dielectric, reflecting with
+    the exact Fresnel probability (white) and refracting by Snell's law (tinted by the base)."""
+    from renderer.materials.fresnel import fresnel_dielectric
+    from tests.renderer.stats import binomial_p_value
+
+    wo = direction(0.5, 0.4)  # inside the critical angle from within the glass too
+    for eta in (IOR, 1 / IOR):
+        s = draw(params(alpha=0.0, transmission=1.0, thin_walled=False, eta=eta), wo, 20_000, SEED + 10)
+        assert (s[:, 7] == 1.0).all()
+        up = s[:, 2] > 0
+        np.testing.assert_allclose(s[up, 3:6], 1.0, rtol=1e-15)
+        np.testing.assert_allclose(s[~up, 3:6], np.tile(BASE, ((~up).sum(), 1)), rtol=1e-15)
+        reflectance = fresnel_dielectric(wo[2], 1 / eta)[0]
+        assert binomial_p_value(int(up.sum()), len(s), reflectance) > ALPHA
+        # Control: the same count is far from a reflectance 30% off.
+        assert binomial_p_value(int(up.sum()), len(s), reflectance * 1.3) < ALPHA
 
 
 # --- no NaN or Inf --------------------------------------------------------------------------------
@@ -342,7 +376,7 @@ def test_finite_at_the_edges(alpha, eta):
     roughness 0 and 1, ior 1: finite and non-negative, black and 0 where wo is not above."""
     us = np.array([[0.0, 0.0, 0.0], [0.5, 0.5, 0.5], [1 - 2 ** -53] * 3, [0.999, 1e-12, 0.999], [0.3, 1 - 2 ** -53, 0.0],
                    [0.6, 0.25, 1 - 2 ** -53], [0.9, 0.0, 0.75]])
-    cases = [params(alpha=alpha, eta=eta, **{"cc_alpha": alpha, **kw}) for kw in VARIANTS.values()]
+    cases = [params(alpha=alpha, **{"cc_alpha": alpha, **kw, "eta": eta}) for kw in VARIANTS.values()]
     # Anisotropic with one width below MIN_ALPHA (raised to it, as the conductor does).
     cases += [params(alpha=0.3, ay=alpha, eta=eta, transmission=0.5, clearcoat=0.5, cc_alpha=alpha)]
     for p in cases:

@@ -76,3 +76,24 @@ def test_an_emitter_that_scatters_renders_alike_with_and_without_light_sampling(
     # Control: without the floor's glow the image is told apart.
     dark = Principled(base_color=(0.6, 0.5, 0.4), roughness=0.5)
     assert max_z(mis, film(lamp_scene(lamp, dark, integrator="path", seed=6, samples=512)))[0] > limit
+
+
+def glass_scene(glass, seed):
+    """A sphere of `glass` over a lit floor, so that refraction moves and focuses the light."""
+    scene = lamp_scene(m.DiffuseLight(emit=LAMP), m.Lambertian(albedo=(0.7, 0.7, 0.7)), seed=seed, samples=256)
+    scene.shapes.append(m.Sphere(center=(0.0, 0.7, 0.2), radius=0.7, material=glass))
+    return scene
+
+
+def test_volumetric_principled_glass_is_the_rough_dielectric():
+    """transmission 1, metallic 0, white base, not thin-walled: the rough dielectric of the same
+    index and roughness, image for image; thin-walled it is not (no refraction offset)."""
+    from scenefmt.materials import RoughDielectric
+
+    glass = film(glass_scene(Principled(base_color=(1, 1, 1), transmission=1.0, roughness=0.3, ior=1.5), seed=7))
+    rough = film(glass_scene(RoughDielectric(ior=1.5, roughness=0.3), seed=8))
+    z, limit = max_z(glass, rough)
+    assert z < limit
+    thin = film(glass_scene(Principled(base_color=(1, 1, 1), transmission=1.0, roughness=0.3, ior=1.5, thin_walled=True),
+                            seed=9))
+    assert max_z(glass, thin)[0] > limit

@@ -8,17 +8,18 @@ a GGX conductor with Schlick's F0 = base colour (tests/naive.py's formula), and 
 transmission, clearcoat and specular all 0 it is lambertian. No input at the edges (grazing
 directions, roughness 0 and 1, ior 1, a view below the surface) gives NaN or Inf.
 
-Small njit loops drive the device functions over arrays with random numbers from numpy's
-seeded generator, so every outcome is deterministic.
+Small compiled loops (declared through renderer/target.py, so their code is cached with the
+renderer's) drive the device functions over arrays with random numbers from numpy's seeded
+generator, so every outcome is deterministic.
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 import pytest
+from renderer import target
 
 from renderer.materials import principled as pr
 from renderer.materials.microfacet import MIN_ALPHA
@@ -52,7 +53,7 @@ GRAZING = direction(math.radians(84.0), 2.0)
 # --- drivers ------------------------------------------------------------------------------------
 
 
-@numba.njit(cache=False)
+@target.kernel
 def _samples(p, wo, us):
     """Rows (wi, weight, pdf, delta, eval at wi, pdf at wi) of principled_sample for each row of us."""
     ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr = p
@@ -71,7 +72,7 @@ def _samples(p, wo, us):
     return out
 
 
-@numba.njit(cache=False)
+@target.kernel
 def _values(p, wo, wis):
     """Rows (eval r, g, b, pdf) for each direction of wis."""
     ax, ay, m, t, c, cca, s, sc, eta, thin, base, corr = p

@@ -4,7 +4,7 @@ Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
 
 - ENVIRONMENT_LIGHT, an image background (environment.py, the kind's module: its lookup and its
   sampler by brightness). At infinity: it gives directions, not points.
-- AREA_LIGHT, an emitting shape: every primitive whose material is a diffuse light, once per
+- AREA_LIGHT, an emitting shape: every primitive whose material `emits` (materials' interface), once per
   instance that places its tree (the row names the instance and the primitive). Its points come
   from its shape family (renderer/shapes/, through shapes/dispatch.py) in the tree's space and
   are carried into the world by the instance's map: a sphere seen from outside under a
@@ -50,14 +50,13 @@ from .background import BACKGROUND_IMAGE, BG_KIND, background
 from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS
-from .materials import DIFFUSE_LIGHT, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
+from .materials import MAT_READS_UV, color_at, emitted_at, emitting_rows
 from .numerics.cdf import pmf_and_cdf, search_cdf
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
-from .textures import texture_value
 from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 
 # Kinds of light (light_i.kind).
@@ -146,7 +145,10 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     """The area light rows of `flat`, chosen among themselves by power, and their total power.
     Power-proportional choice needs the mean emission, which `_powers` measures with the
     kernels' own sampling."""
-    emitting = flat.mat_i[flat.prims_i[:, PRIM_MATERIAL], MAT_KIND] == DIFFUSE_LIGHT
+    # The materials that emit, as the material interface answers (`emits`): no kind is named here.
+    emits = np.zeros(len(flat.mat_i), np.bool_)
+    emitting_rows(flat.mat_i, emits)
+    emitting = emits[flat.prims_i[:, PRIM_MATERIAL]]
     if not emitting.any():
         return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
     inst_light = np.zeros(len(flat.inst_i), np.int32)
@@ -340,12 +342,13 @@ def area_ratio(inst_f, inst, n_world):
 
 @target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
-    """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there)."""
+    """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there), as
+    its material answers a ray that hits it there (`emitted_at`: two-sided, so the side is not asked)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
     # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.
     _, _, u, v = surface(kind, S, prim, madd(x_tree, n_tree, 1.0), neg(n_tree), 1.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
-    return texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_TEXTURE], u, v, x_world)
+    return emitted_at(S, mat, color_at(S, mat, u, v, x_world), u, v, x_world, True)
 
 
 @target.device

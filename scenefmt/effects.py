@@ -13,7 +13,7 @@ from . import affine
 from .diagnostics import format_path
 from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
-from .materials import SCALAR_SLOTS
+from .materials import SCALAR_SLOTS, emits
 from .scene import ImageBackground, SkyBackground
 
 # (key, name), from the one table of effects: the key is the kernel path's flag
@@ -161,7 +161,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
             counts["sphere"] = counts.get("sphere", 0) + len(member)
             for material, first, count in zip(member.materials, member.material_first.tolist(), member.material_count.tolist()):
                 part = _RunPart(member.path_of(first), count)
-                if material.kind == "diffuse_light":
+                if emits(material.model):
                     emitters.append(part)
                 if material.kind == "dielectric":
                     dielectrics.append(part)
@@ -181,7 +181,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 with_media.append(member)
             if member.kind == "mesh":
                 with_meshes.append(member)
-            if member.material is not None and member.material.kind == "diffuse_light":
+            if member.material is not None and emits(member.material.model):
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)

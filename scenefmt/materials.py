@@ -322,6 +322,7 @@ class Principled(SurfaceMaps):
     clearcoat_roughness: ScalarSlot = Field(0.0, description="Perceptual roughness of the clear coat.")
     emission: TextureSlot = Field((0.0, 0.0, 0.0), description="Emitted radiance before `emission_strength`: a colour or a texture.")
     emission_strength: Number = Field(1.0, ge=0, description="Multiplies `emission` (KHR_materials_emissive_strength).")
+    thin_walled: StrictBool = Field(False, description="Transmission through a thin sheet (glTF without KHR_materials_volume: rays pass straight through, blurred by roughness) instead of refraction into a solid (false: a closed shape reads as glass).")
     shadowing: Shadowing = Field("correlated", description=SHADOWING_DESCRIPTION)
 
     @model_validator(mode="after")
@@ -378,3 +379,15 @@ def texture_fields(model) -> list[tuple[str, Any, str]]:
         if isinstance(value, ScalarTexture):
             found.append((key, value.texture, "scalar"))
     return found
+
+
+def emits(model) -> bool:
+    """Whether a material model sends light: the books' diffuse light always, a principled
+    material when its emission is not a constant black and its strength is above 0 (a textured
+    emission counts as light whatever its texels)."""
+    if model.type == "diffuse_light":
+        return True
+    if model.type == "principled":
+        e = model.emission
+        return model.emission_strength > 0 and not (isinstance(e, tuple) and max(e) <= 0)
+    return False

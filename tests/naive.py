@@ -225,3 +225,13 @@ def fresnel_conductor(cos_i, eta, k):
 
 def schlick(f0, cos):
     return f0 + (1 - f0) * (1 - cos) ** 5
+
+
+def principled_metal(ax, ay, base, wo, wi, correlated=True):
+    """glTF's metal_brdf times cos theta_i: Schlick(base, |wo . h|) D(h) G(wo, wi, h) / (4 cos_o
+    cos_i) cos_i for wo, wi above the surface, h their half vector; black otherwise."""
+    if wo[2] <= 0 or wi[2] <= 0:
+        return (0.0, 0.0, 0.0)
+    h = unit(add(wo, wi))
+    spec = ggx_d(ax, ay, h) * smith_g(ax, ay, wo, wi, h, correlated) / (4 * wo[2] * wi[2]) * wi[2]
+    return tuple(schlick(b, abs(dot(wo, h))) * spec for b in base)

@@ -11,8 +11,10 @@ from ..textures import texture_value
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value, metal_direction,
                     random_unit_vector)
 from .families import family_eval, family_has_density, family_pdf, family_sample
-from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM,
-                    MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE, MAT_READS_UV, MAT_TEXTURE, METAL)
+from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_EMISSION, MAT_EMISSION_STRENGTH,
+                    MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE,
+                    MAT_READS_UV, MAT_TEXTURE, METAL)
+from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 
 # Whether any kind with parameter slots can occur: without one, `material_at` reads none.
 MICROFACETS = CONDUCTORS or ROUGH_DIELECTRICS or PLASTICS or PRINCIPLED
@@ -84,10 +86,42 @@ def material_at(S, mat, u, v, p):
 
 @target.device
 def emits(mat_i, mat):
-    """Whether material row `mat` emits light (then `emitted` says how much). The path tracer
-    ends a path at an emitter: the books' lights absorb all that reaches them (their
-    `sample_bsdf` gives no direction), and asking was slower."""
-    return EMITTERS and mat_i[mat, MAT_KIND] == DIFFUSE_LIGHT
+    """Whether material row `mat` emits light (then `emitted_at` says how much): the books'
+    diffuse light, and a principled material whose row names an emission texture (table.py
+    leaves it -1 for a black emission). The path tracer ends a path at an emitter unless it
+    also `scatters`."""
+    return EMITTERS and (mat_i[mat, MAT_KIND] == DIFFUSE_LIGHT
+                         or (PRINCIPLED and mat_i[mat, MAT_KIND] == PRINCIPLED_KIND and mat_i[mat, MAT_EMISSION] >= 0))
+
+
+@target.device
+def scatters(mat_i, mat):
+    """Whether material row `mat` scatters the light that reaches it. Every material does but the
+    books' diffuse light, which absorbs it all: the path tracer ends a path at an emitter that
+    does not scatter and goes on from one that does (a principled surface with an emission)."""
+    return mat_i[mat, MAT_KIND] != DIFFUSE_LIGHT
+
+
+@target.kernel
+def emitting_rows(mat_i, out):
+    """out[mat] = whether material row `mat` emits, as `emits` answers it: the flattening of the
+    lights asks the interface, so an emitting material of a new kind is a light at once."""
+    for mat in range(mat_i.shape[0]):
+        out[mat] = emits(mat_i, mat)
+
+
+@target.device
+def emitted_at(S, mat, color, u, v, p, front_face):
+    """Radiance that material row `mat` (one that `emits`) sends back along a ray that hit it at
+    p, (u, v), its colour there being `color` (`material_at`): for a principled material its
+    emission texture there times its strength (KHR_materials_emissive_strength), from both
+    sides as the books' light, since the light category samples emitters two-sided; for the
+    others `emitted` of their colour."""
+    if PRINCIPLED and S.mat_i[mat, MAT_KIND] == PRINCIPLED_KIND and S.mat_i[mat, MAT_EMISSION] >= 0:
+        e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_EMISSION], u, v, p)
+        k = S.mat_f[mat, MAT_EMISSION_STRENGTH]
+        return (e[0] * k, e[1] * k, e[2] * k)
+    return emitted(S.mat_i, S.mat_f, mat, color, front_face)
 
 
 @target.device

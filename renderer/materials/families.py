@@ -9,12 +9,16 @@ far side over the index on the near side, chosen here from the side the ray hit.
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS, ROUGH_DIELECTRICS
+from ..kernel_flags import CONDUCTORS, PRINCIPLED, ROUGH_DIELECTRICS
 from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
+from .principled import principled_eval, principled_has_density, principled_pdf, principled_sample
 from .rough_dielectric import (rough_dielectric_eval, rough_dielectric_is_smooth, rough_dielectric_pdf,
                                rough_dielectric_sample)
-from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, ROUGH_DIELECTRIC, SLOT_ALPHA_U, SLOT_ALPHA_V,
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_SPECULAR_COLOR, MAT_THIN_WALLED, ROUGH_DIELECTRIC,
+                    SLOT_ALPHA_U,
+                    SLOT_ALPHA_V, SLOT_CLEARCOAT, SLOT_CLEARCOAT_ALPHA, SLOT_METALLIC, SLOT_SPECULAR, SLOT_TRANSMISSION,
                     THIN_DIELECTRIC)
+from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 from .thin_dielectric import thin_dielectric_sample
 
 _BLACK = (0.0, 0.0, 0.0)
@@ -47,6 +51,11 @@ def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1
     if ROUGH_DIELECTRICS and kind == THIN_DIELECTRIC:
         # A sheet has air on both sides: its ior, whichever side was hit.
         return thin_dielectric_sample(mat_f[mat, MAT_IOR], color, wo, u0, u1, u2)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                                 params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                                 params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                                 mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -60,6 +69,11 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
     if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
         return rough_dielectric_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _eta(mat_f, mat, front_face), color,
                                      correlated, wo, wi)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                               params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                               params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                               mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, wi)
     return _BLACK
 
 
@@ -73,6 +87,11 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
     if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
         return rough_dielectric_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _eta(mat_f, mat, front_face), _BLACK,
                                     correlated, wo, wi)
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                              params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
+                              params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
+                              mat_i[mat, MAT_THIN_WALLED] != 0, _BLACK, correlated, wo, wi)
     return 0.0
 
 
@@ -85,4 +104,7 @@ def family_has_density(kind, params):
         # By its widths only: at ior 1 the rough lobe is a delta too, and light sampling finds
         # nothing there (eval 0), which costs shadow rays but no bias.
         return not rough_dielectric_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
+    if PRINCIPLED and kind == PRINCIPLED_KIND:
+        return principled_has_density(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
+                                      params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA])
     return False

@@ -1,5 +1,7 @@
 """The material table: type codes, the two row layouts, and each material model's rows."""
 
+from scenefmt.materials import emits
+
 from ..columns import Column, Layout
 
 # Type codes. The books' materials first; the microfacet families from CONDUCTOR on, so that one
@@ -39,9 +41,10 @@ MATERIAL_I = Layout("mat_i", "int32", [
                                              "the GGX width"),
     Column("normal_map", 1, "texture row of a tangent-space normal map, -1 for none"),
     Column("bump_map", 1, "texture row of a height field, -1 for none"),
-    Column("emission", 1, "principled: texture row of the emitted colour, -1 for none"),
+    Column("emission", 1, "principled: texture row of the emitted colour, -1 for none (also for a black one)"),
     Column("correlated", 1, "microfacet kinds: 1 for the height-correlated Smith term, 0 for the separable one"),
     Column("nonlinear", 1, "plastic: 1 to account for the colour shift of internal bounces"),
+    Column("thin_walled", 1, "principled: 1 for a thin sheet's transmission, 0 for refraction into a solid"),
 ])
 MATERIAL_F = Layout("mat_f", "float64", [
     Column("fuzz", 1, "metal: radius of the sphere the mirror direction is moved within (0 = a perfect mirror)"),
@@ -56,8 +59,8 @@ MATERIAL_F = Layout("mat_f", "float64", [
 ])
 MAT_KIND, MAT_TEXTURE, MAT_READS_UV = MATERIAL_I.offsets("kind", "texture", "reads_uv")
 MAT_PARAM_TEXTURE, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED = MATERIAL_I.offsets("param_texture", "param_channel", "param_squared")
-MAT_NORMAL_MAP, MAT_BUMP_MAP, MAT_EMISSION, MAT_CORRELATED, MAT_NONLINEAR = MATERIAL_I.offsets(
-    "normal_map", "bump_map", "emission", "correlated", "nonlinear")
+MAT_NORMAL_MAP, MAT_BUMP_MAP, MAT_EMISSION, MAT_CORRELATED, MAT_NONLINEAR, MAT_THIN_WALLED = MATERIAL_I.offsets(
+    "normal_map", "bump_map", "emission", "correlated", "nonlinear", "thin_walled")
 MAT_FUZZ, MAT_IOR, MAT_PARAM, MAT_ETA, MAT_K = MATERIAL_F.offsets("fuzz", "ior", "param", "eta", "k")
 MAT_SPECULAR_COLOR, MAT_NORMAL_SCALE, MAT_BUMP_HEIGHT, MAT_EMISSION_STRENGTH = MATERIAL_F.offsets(
     "specular_color", "normal_scale", "bump_height", "emission_strength")
@@ -105,9 +108,10 @@ def material_rows(model, texture: int, texture_rows: dict | None = None) -> tupl
         kind=CODES[model.type], texture=texture,
         param_texture=[s[1] for s in slots], param_channel=[s[2] for s in slots], param_squared=[s[3] for s in slots],
         normal_map=texture_rows.get("normal_map", -1), bump_map=texture_rows.get("bump_map", -1),
-        emission=texture_rows.get("emission", -1) if model.type == "principled" else -1,
+        # -1 unless the material sends light: `dispatch.emits` reads this column.
+        emission=texture_rows.get("emission", -1) if model.type == "principled" and emits(model) else -1,
         correlated=int(getattr(model, "shadowing", "correlated") == "correlated"),
-        nonlinear=int(getattr(model, "nonlinear", False)),
+        nonlinear=int(getattr(model, "nonlinear", False)), thin_walled=int(getattr(model, "thin_walled", False)),
     )
     eta, k = model.index() if model.type == "conductor" else ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     floats = MATERIAL_F.row(

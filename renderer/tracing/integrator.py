@@ -8,7 +8,8 @@ from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import INSTANCES
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
-from ..materials import NO_TANGENT, emits, emitted, eval_bsdf, has_density, is_zero, material_at, pdf_bsdf, reads_uv, sample_bsdf
+from ..materials import (NO_TANGENT, emits, emitted_at, eval_bsdf, has_density, is_zero, material_at, pdf_bsdf, reads_uv,
+                         sample_bsdf, scatters)
 from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
@@ -37,7 +38,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     bounces end by Russian roulette.
 
     Materials answer through their interface (materials.py: `sample_bsdf`, `eval_bsdf`,
-    `pdf_bsdf`, `emitted`), shapes through theirs (shapes/dispatch.py: `interaction`,
+    `pdf_bsdf`, `emitted_at`, `scatters`), shapes through theirs (shapes/dispatch.py: `interaction`,
     `is_volume`) and lights through the light category (lights.py): `sample_li` chooses one of
     every kind and samples it, `pdf_li` and `radiance_escaped` give the density it would have
     had for a path that hits a light or escapes to one at infinity (an environment map). This
@@ -87,7 +88,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         color, params = material_at(S, mat, u, v, p)
         tangent = NO_TANGENT
         if emits(S.mat_i, mat):
-            e = emitted(S.mat_i, S.mat_f, mat, color, front)
+            e = emitted_at(S, mat, color, u, v, p, front)
             if nee and prev_pdf > 0.0:
                 # The light sampler could have found this point too: weigh the two ways.
                 light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, p, n, time)
@@ -96,9 +97,11 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             r += tr * e[0]
             g += tg * e[1]
             b += tb * e[2]
-            # Lights absorb what reaches them (sample_bsdf would say so: direction (0, 0, 0)); ending
-            # the path here rather than asking was 3% faster on the Cornell box.
-            break
+            # The books' lights absorb what reaches them (sample_bsdf would say so: direction
+            # (0, 0, 0)); ending the path here rather than asking was 3% faster on the Cornell box.
+            # An emitter that also scatters (a principled surface) goes on like any other.
+            if not scatters(S.mat_i, mat):
+                break
         new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, key,
                                           bounce_dim(bounce, 0))
         # The shadow ray is the path's next segment: only where max_depth allows one more. It is

@@ -60,8 +60,10 @@ def _scatter_many(mat_i, mat_f, d, normal, front, seed, n, bounce):
 
 
 def material_rows(kind, fuzz=0.0, ior=1.0):
-    """The (mat_i, mat_f) tables of one material of `kind` in row 0."""
-    return (np.array([MATERIAL_I.row(kind=kind)], np.int32), np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64))
+    """The (mat_i, mat_f) tables of one material of `kind` in row 0 (no emission texture: -1, as
+    table.material_rows writes it for a material that sends no light)."""
+    return (np.array([MATERIAL_I.row(kind=kind, emission=-1)], np.int32),
+            np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64))
 
 
 @target.device

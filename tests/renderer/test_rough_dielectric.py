@@ -34,7 +34,7 @@ from renderer.materials.books import dielectric_direction
 from renderer.materials.microfacet import MIN_ALPHA
 from renderer.materials.rough_dielectric import (rough_dielectric_eval, rough_dielectric_pdf, rough_dielectric_sample)
 from tests import naive
-from tests.renderer.stats import ALPHA, chi2_test
+from tests.renderer.stats import ALPHA
 
 SEED = 20251131
 TINT = (0.9, 0.6, 0.3)

@@ -2,9 +2,10 @@
 
     python docs/gallery.py [NAME ...]
 
-With names (stems of scenes/ files), only those scenes are rendered again; the other rows of
-docs/gallery.md are kept as they are. Each scene is rendered at a small width with enough samples
-for the book's image to be recognisable; the table records the settings and the time each took on this machine.
+With names (stems of scenes/ files), only those scenes are rendered; the other rows of
+docs/gallery.md are kept as they are (a scene with no row yet gets one when it is named). Each
+scene is rendered at a small width with enough samples for the book's image to be recognisable;
+the table records the settings and the time each took on this machine.
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ def main(argv=None) -> int:
     kept = kept_rows(names) if names else {}
     scenes = sorted((ROOT / "scenes").glob("*.yaml")) + sorted((ROOT / "scenes").glob("*.json"))
     for path in scenes:
-        if path.stem in kept:
-            rows.append(kept[path.stem])
+        if names and path.stem not in names:
+            if path.stem in kept:
+                rows.append(kept[path.stem])
             continue
         loaded = load(path)
         graph = with_width(loaded.graph, WIDTH)

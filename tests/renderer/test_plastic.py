@@ -1,0 +1,238 @@
+"""Plastic, a diffuse base under a smooth or rough dielectric coat (renderer/materials/plastic.py,
+coat.py, coat_tables.py), held to the local-frame lobe contract of issue 31.
+
+Fast tests call the device functions from Python on chosen inputs: the sampler's weight is
+eval / pdf, eval is reciprocal and matches a textbook transcription of Mitsuba 3's plastic, the
+limits (no coat: lambertian; black base: only the coat), no NaN or Inf at the edges, and the
+coat's tables against a fresh integration. The slow ones draw many samples through compiled
+loops: chi-square of the non-delta part's directions against its own pdf, the share of the
+smooth coat's mirror, and the white furnace (how much of the light a white plastic returns).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from renderer.materials import coat, coat_table_data, coat_tables
+from renderer.materials import plastic as pl
+from renderer.materials.microfacet import MIN_ALPHA
+from tests import naive
+from tests.renderer.stats import ALPHA, binomial_p_value, chi2_test, z_limit
+
+SEED = 20251126
+ALBEDO = (0.7, 0.4, 0.2)
+IOR = 1.5
+
+
+def direction(theta, phi):
+    return (math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta))
+
+
+def random_upper(rng):
+    v = rng.normal(size=3)
+    v /= np.linalg.norm(v)
+    return (float(v[0]), float(v[1]), float(abs(v[2])))
+
+
+def close(a, b, rel=1e-12, abs_=1e-15):
+    return abs(a - b) <= abs_ + rel * max(abs(a), abs(b))
+
+
+# (ax, ay) of the coats tested: smooth, glossy, rough, anisotropic.
+COATS = [(0.0, 0.0), (0.1, 0.1), (0.5, 0.5), (0.3, 0.08)]
+
+
+# --- the contract on chosen inputs ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("ax,ay", COATS)
+@pytest.mark.parametrize("nonlinear", [False, True])
+def test_weight_is_eval_over_pdf_and_delta_only_for_the_smooth_mirror(ax, ay, nonlinear):
+    rng = np.random.default_rng(SEED)
+    smooth = ax == 0.0
+    seen = set()
+    for _ in range(200):
+        wo = random_upper(rng)
+        u0, u1, u2 = (float(x) for x in rng.random(3))
+        wi, weight, pdf, delta = pl.plastic_sample(ax, ay, IOR, ALBEDO, nonlinear, True, wo, u0, u1, u2)
+        assert all(math.isfinite(x) for x in wi + weight) and math.isfinite(pdf)
+        assert abs(math.hypot(*wi) - 1.0) < 1e-12
+        seen.add(delta)
+        if delta:
+            assert smooth and pdf == 0.0 and wi == (-wo[0], -wo[1], wo[2])
+            p_spec = pl.plastic_specular_probability(ax, ay, IOR, ALBEDO, wo[2])
+            assert u0 < p_spec
+            f = naive.fresnel_dielectric(wo[2], 1.0 / IOR)
+            assert all(close(w, f / p_spec, rel=1e-12) for w in weight)
+            continue
+        if pdf == 0.0:
+            assert weight == (0.0, 0.0, 0.0) and wi[2] <= 0.0  # a microfacet reflection below the surface
+            continue
+        assert pdf == pl.plastic_pdf(ax, ay, IOR, ALBEDO, nonlinear, True, wo, wi)
+        f = pl.plastic_eval(ax, ay, IOR, ALBEDO, nonlinear, True, wo, wi)
+        assert weight == (f[0] / pdf, f[1] / pdf, f[2] / pdf)
+    assert seen == ({True, False} if smooth else {False})
+
+
+@pytest.mark.parametrize("ax,ay", COATS)
+@pytest.mark.parametrize("correlated", [True, False])
+def test_eval_is_reciprocal_and_zero_below(ax, ay, correlated):
+    rng = np.random.default_rng(SEED + 1)
+    for _ in range(200):
+        wo, wi = random_upper(rng), random_upper(rng)
+        forward = pl.plastic_eval(ax, ay, IOR, ALBEDO, True, correlated, wo, wi)
+        backward = pl.plastic_eval(ax, ay, IOR, ALBEDO, True, correlated, wi, wo)
+        assert min(forward) > 0.0
+        for c in range(3):
+            # f = eval / cos(theta_i) is the same with the light's way reversed.
+            assert close(forward[c] / wi[2], backward[c] / wo[2], rel=1e-12)
+        below = (wi[0], wi[1], -wi[2])
+        assert pl.plastic_eval(ax, ay, IOR, ALBEDO, True, correlated, wo, below) == (0.0, 0.0, 0.0)
+        assert pl.plastic_pdf(ax, ay, IOR, ALBEDO, True, correlated, wo, below) == 0.0
+        assert pl.plastic_eval(ax, ay, IOR, ALBEDO, True, correlated, below, wo) == (0.0, 0.0, 0.0)
+
+
+def mitsuba_plastic(alpha, eta, albedo, nonlinear, wo, wi, t_o=None, t_i=None, r_in=None):
+    """f . cos of Mitsuba 3's plastic (alpha 0) and roughplastic (GGX, separable G), transcribed
+    from its source with the textbook D, G and Fresnel of tests/naive.py: the base's part with
+    the given coat transmittances and internal reflectance (Mitsuba's tables), else smooth ones."""
+    f_o, f_i = naive.fresnel_dielectric(wo[2], 1 / eta), naive.fresnel_dielectric(wi[2], 1 / eta)
+    t_o = 1 - f_o if t_o is None else t_o
+    t_i = 1 - f_i if t_i is None else t_i
+    out = []
+    for a in albedo:
+        diff = a / (1 - (a * r_in if nonlinear else r_in))
+        out.append(diff * t_o * t_i * wi[2] / (math.pi * eta * eta))
+    if alpha > 0:
+        h = naive.unit(naive.add(wo, wi))
+        spec = (naive.fresnel_dielectric(naive.dot(wo, h), 1 / eta) * naive.ggx_d(alpha, alpha, h)
+                * naive.smith_g(alpha, alpha, wo, wi, h, False) / (4 * wo[2]))
+        out = [x + spec for x in out]
+    return out
+
+
+@pytest.mark.parametrize("nonlinear", [False, True])
+def test_smooth_coat_is_mitsubas_plastic(nonlinear):
+    rng = np.random.default_rng(SEED + 2)
+    r_in = coat.inner_diffuse_reflectance(IOR)
+    # Mitsuba's fit of the internal diffuse reflectance, at its relative index 1 / eta.
+    x = 1 / IOR
+    assert close(r_in, 0.0636 / x + x * (x * -1.4399 + 0.7099) + 0.6681)
+    for _ in range(100):
+        wo, wi = random_upper(rng), random_upper(rng)
+        got = pl.plastic_eval(0.0, 0.0, IOR, ALBEDO, nonlinear, True, wo, wi)
+        want = mitsuba_plastic(0.0, IOR, ALBEDO, nonlinear, wo, wi, r_in=r_in)
+        assert all(close(g, w, rel=1e-12) for g, w in zip(got, want))
+        # Mitsuba's lobe choice: Fresnel times 1 / (1 + mean albedo), against the base's share.
+        s = 1 / (1 + sum(ALBEDO) / 3)
+        f_o = naive.fresnel_dielectric(wo[2], 1 / IOR)
+        want_p = f_o * s / (f_o * s + (1 - f_o) * (1 - s))
+        assert close(pl.plastic_specular_probability(0.0, 0.0, IOR, ALBEDO, wo[2]), want_p, rel=1e-12)
+        assert close(pl.plastic_pdf(0.0, 0.0, IOR, ALBEDO, nonlinear, True, wo, wi), (1 - want_p) * wi[2] / math.pi)
+
+
+@pytest.mark.parametrize("alpha", [0.05, 0.3, 0.8])
+def test_rough_coat_is_mitsubas_roughplastic_with_its_tables(alpha):
+    """Separable shadowing is Mitsuba's form: with the same coat transmittances and internal
+    reflectance, eval is Mitsuba's roughplastic term for term."""
+    rng = np.random.default_rng(SEED + 3)
+    r_in = coat.coat_internal_reflectance(IOR, alpha)
+    for _ in range(100):
+        wo, wi = random_upper(rng), random_upper(rng)
+        t_o, t_i = coat.coat_transmittance(IOR, alpha, wo[2]), coat.coat_transmittance(IOR, alpha, wi[2])
+        got = pl.plastic_eval(alpha, alpha, IOR, ALBEDO, False, False, wo, wi)
+        want = mitsuba_plastic(alpha, IOR, ALBEDO, False, wo, wi, t_o, t_i, r_in)
+        assert all(close(g, w, rel=1e-9) for g, w in zip(got, want))
+
+
+def test_no_coat_is_lambertian():
+    """ior 1: nothing reflects at the coat, nothing is trapped under it: albedo / pi cos."""
+    rng = np.random.default_rng(SEED + 4)
+    for nonlinear in (False, True):
+        for _ in range(50):
+            wo, wi = random_upper(rng), random_upper(rng)
+            got = pl.plastic_eval(0.0, 0.0, 1.0, ALBEDO, nonlinear, True, wo, wi)
+            assert all(close(g, a / math.pi * wi[2]) for g, a in zip(got, ALBEDO))
+            assert close(pl.plastic_pdf(0.0, 0.0, 1.0, ALBEDO, nonlinear, True, wo, wi), wi[2] / math.pi)
+            # Every sample is the base's, with weight exactly the albedo (up to rounding).
+            wi_s, weight, pdf, delta = pl.plastic_sample(0.0, 0.0, 1.0, ALBEDO, nonlinear, True, wo, *rng.random(3))
+            assert not delta and all(close(w, a, rel=1e-12) for w, a in zip(weight, ALBEDO))
+
+
+def test_black_base_shows_only_the_coat():
+    rng = np.random.default_rng(SEED + 5)
+    black = (0.0, 0.0, 0.0)
+    for _ in range(50):
+        wo, wi = random_upper(rng), random_upper(rng)
+        # Smooth: only the mirror, always chosen, nothing for light sampling.
+        assert pl.plastic_eval(0.0, 0.0, IOR, black, False, True, wo, wi) == (0.0, 0.0, 0.0)
+        assert pl.plastic_pdf(0.0, 0.0, IOR, black, False, True, wo, wi) == 0.0
+        _, weight, pdf, delta = pl.plastic_sample(0.0, 0.0, IOR, black, False, True, wo, *rng.random(3))
+        f = naive.fresnel_dielectric(wo[2], 1 / IOR)
+        assert delta and pdf == 0.0 and all(close(w, f) for w in weight)
+        # Rough: the GGX reflection alone, grey, and only GGX directions are sampled.
+        got = pl.plastic_eval(0.3, 0.3, IOR, black, False, False, wo, wi)
+        want = mitsuba_plastic(0.3, IOR, black, False, wo, wi, 0.0, 0.0, 0.0)
+        assert got[0] == got[1] == got[2] and close(got[0], want[0], rel=1e-9)
+        assert pl.plastic_specular_probability(0.3, 0.3, IOR, black, wo[2]) == 1.0
+
+
+EDGE_DIRECTIONS = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), direction(math.pi / 2 - 1e-9, 0.4),
+                   direction(math.pi / 2 - 1e-4, 2.0), direction(1e-9, 1.0), (0.0, 0.0, -1.0),
+                   (math.sqrt(0.5), 0.0, -math.sqrt(0.5))]
+
+
+def test_finite_at_grazing_angles_alpha_edges_ior_1_and_below_the_surface():
+    """Every case named: grazing views and lights (cos 0, 1e-9, 1e-4), alpha 0, MIN_ALPHA, 1 and
+    one-sided anisotropy, ior 1 and 3.5 (beyond the tables), directions below the surface (as a
+    normal map can give), extreme random numbers. Nothing NaN or Inf, nothing negative."""
+    us = (0.0, 0.5, 1.0 - 2 ** -53)
+    for ax, ay in [(0.0, 0.0), (MIN_ALPHA, MIN_ALPHA), (1.0, 1.0), (0.0, 0.7), (MIN_ALPHA, 1.0)]:
+        for eta in (1.0, IOR, 3.5):
+            for albedo in (ALBEDO, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)):
+                for nonlinear in (False, True):
+                    for wo in EDGE_DIRECTIONS:
+                        for wi in EDGE_DIRECTIONS:
+                            f = pl.plastic_eval(ax, ay, eta, albedo, nonlinear, True, wo, wi)
+                            p = pl.plastic_pdf(ax, ay, eta, albedo, nonlinear, True, wo, wi)
+                            assert all(math.isfinite(x) and x >= 0.0 for x in f + (p,)), (ax, ay, eta, wo, wi, f, p)
+                        for u0 in us:
+                            for u1 in us:
+                                wi, w, p, delta = pl.plastic_sample(ax, ay, eta, albedo, nonlinear, True, wo, u0, u1, 0.3)
+                                assert all(math.isfinite(x) for x in wi + w + (p,)), (ax, ay, eta, wo, u0, u1)
+                                assert min(w) >= 0.0 and p >= 0.0
+                                if wo[2] <= 0.0:
+                                    assert w == (0.0, 0.0, 0.0) and p == 0.0 and not delta
+
+
+# --- the coat's tables ---------------------------------------------------------------------------
+
+
+def test_tables_are_what_the_generator_computes():
+    """Spot checks of the generated data module against a fresh integration."""
+    assert coat_table_data.TRANSMITTANCE.shape == (len(coat_tables.IORS), len(coat_tables.ROUGHNESSES),
+                                                   len(coat_tables.COSINES))
+    for i, j in [(5, 0), (5, 4), (12, 16), (0, 8)]:
+        alpha = max(coat_tables.ALPHA_FLOOR, coat_tables.ROUGHNESSES[j] ** 2)
+        fresh = coat_tables.transmittance(coat_tables.IORS[i], alpha, coat_tables.COSINES)
+        np.testing.assert_allclose(coat_table_data.TRANSMITTANCE[i, j], fresh, rtol=0, atol=2e-9)
+    fresh = coat_tables.internal_reflectance(coat_tables.IORS[5], 0.25)
+    assert abs(coat_table_data.INTERNAL_REFLECTANCE[5, 8] - fresh) < 2e-9
+
+
+def test_tables_meet_the_smooth_coat_and_interpolate_closely():
+    # Roughness 0 is the smooth coat: 1 - F per direction, and the exact hemispherical average
+    # that Mitsuba's fit approximates (to 0.1% at ior 1.5).
+    for mu in (0.125, 0.5, 1.0):  # grid points
+        assert abs(coat.coat_transmittance(IOR, 0.0, mu) - (1 - naive.fresnel_dielectric(mu, 1 / IOR))) < 1e-5
+    assert abs(coat.coat_internal_reflectance(IOR, 0.0) - coat.inner_diffuse_reflectance(IOR)) < 1e-3
+    assert coat.coat_internal_reflectance(1.0, 0.5) == 0.0
+    # Between grid points, linear interpolation stays within 3e-3 of the integral.
+    for eta, alpha, mu in [(1.55, 0.2, 0.43), (1.33, 0.05, 0.9), (2.05, 0.7, 0.11), (1.45, 0.01, 0.26)]:
+        fresh = coat_tables.transmittance(eta, alpha, [mu])[0]
+        assert abs(coat.coat_transmittance(eta, alpha, mu) - fresh) < 3e-3, (eta, alpha, mu)
+        assert abs(coat.coat_internal_reflectance(eta, alpha) - coat_tables.internal_reflectance(eta, alpha)) < 3e-3

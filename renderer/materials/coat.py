@@ -10,8 +10,9 @@ reflectance for light arriving from inside, averaged over a cosine-weighted hemi
 scatters diffusely). As in Mitsuba 3:
 
 - a smooth coat: its Fresnel reflectance for a direction (`coat_reflectance`), and for R_in
-  `inner_diffuse_reflectance`, the same polynomial fits Mitsuba uses (Egan and Hilgeman 1973,
-  d'Eon and Irving 2011; within 0.1% of the integral for ior 1 to 2), exact 0 without a coat;
+  `inner_diffuse_reflectance`, exact (tabulated finely over the ior, see coat_tables.py) where
+  Mitsuba uses a polynomial fit (0.08% high at ior 1.5, so that its white plastic returns 1.001
+  of the light); 0 without a coat;
 - a rough (GGX) coat: its transmittance per direction and R_in precomputed by integrating over
   the visible normals (`coat_tables.py`, read here from `coat_table_data.py`) and interpolated
   linearly in (ior, roughness = sqrt(alpha), cosine). The tables are isotropic: an anisotropic
@@ -24,8 +25,22 @@ import math
 from .. import target
 
 from .coat_table_data import (COSINE_COUNT, COSINE_FIRST, COSINE_STEP, INTERNAL_REFLECTANCE, IOR_COUNT, IOR_FIRST,
-                              IOR_STEP, ROUGHNESS_COUNT, ROUGHNESS_FIRST, ROUGHNESS_STEP, TRANSMITTANCE)
+                              IOR_STEP, ROUGHNESS_COUNT, ROUGHNESS_FIRST, ROUGHNESS_STEP, SMOOTH_INTERNAL_REFLECTANCE,
+                              SMOOTH_IOR_COUNT, SMOOTH_IOR_FIRST, SMOOTH_IOR_STEP, TRANSMITTANCE)
 from .fresnel import fresnel_dielectric
+
+
+@target.device
+def _cell(x, first, step, count):
+    """(index, fraction) of x on a grid of `count` points first + k step, for linear
+    interpolation between points index and index + 1; x outside is clamped to the ends."""
+    t = (x - first) / step
+    if not t > 0.0:
+        return 0, 0.0
+    if t >= count - 1:
+        return count - 2, 1.0
+    i = int(t)
+    return i, t - i
 
 
 @target.device
@@ -41,29 +56,18 @@ def coat_reflectance(cos_o, eta):
 @target.device
 def inner_diffuse_reflectance(eta):
     """A smooth coat's reflectance for light from inside, averaged over a cosine-weighted
-    hemisphere (total internal reflection included): Mitsuba 3's fits of the diffuse Fresnel
-    reflectance at the relative index 1 / eta, exact 0 at eta = 1 (where the fit gives 2e-4)."""
+    hemisphere (total internal reflection included), for eta >= 1: the exact values tabulated
+    every 0.01 of the ior up to 5, interpolated linearly (the function is concave, so within
+    the table this errs low, by at most 1e-4 at ior 1.5: a white plastic never returns more than
+    it receives), clamped above 5 and 0 at eta = 1. For a coat less dense than the outside
+    (eta < 1, no total internal reflection inside) Mitsuba's fit, d'Eon and Irving (2011), a
+    polynomial in eta accurate to 0.2%."""
     if eta == 1.0:
         return 0.0
-    x = 1.0 / eta
-    if x < 1.0:
-        # Egan and Hilgeman (1973), accurate to 0.1% for ior 1 to 1.5, 0.6% up to 2.
-        return 0.0636 / x + x * (x * -1.4399 + 0.7099) + 0.6681
-    # d'Eon and Irving (2011), a polynomial in 1 / x = eta.
-    return ((((-1.36881 * eta + 4.98554) * eta - 7.80989) * eta + 6.75335) * eta - 3.4793) * eta + 0.919317
-
-
-@target.device
-def _cell(x, first, step, count):
-    """(index, fraction) of x on a grid of `count` points first + k step, for linear
-    interpolation between points index and index + 1; x outside is clamped to the ends."""
-    t = (x - first) / step
-    if not t > 0.0:
-        return 0, 0.0
-    if t >= count - 1:
-        return count - 2, 1.0
-    i = int(t)
-    return i, t - i
+    if eta < 1.0:
+        return ((((-1.36881 * eta + 4.98554) * eta - 7.80989) * eta + 6.75335) * eta - 3.4793) * eta + 0.919317
+    i, f = _cell(eta, SMOOTH_IOR_FIRST, SMOOTH_IOR_STEP, SMOOTH_IOR_COUNT)
+    return (1.0 - f) * SMOOTH_INTERNAL_REFLECTANCE[i] + f * SMOOTH_INTERNAL_REFLECTANCE[i + 1]
 
 
 @target.device

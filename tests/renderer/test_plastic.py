@@ -119,9 +119,16 @@ def mitsuba_plastic(alpha, eta, albedo, nonlinear, wo, wi, t_o=None, t_i=None, r
 def test_smooth_coat_is_mitsubas_plastic(nonlinear):
     rng = np.random.default_rng(SEED + 2)
     r_in = coat.inner_diffuse_reflectance(IOR)
-    # Mitsuba's fit of the internal diffuse reflectance, at its relative index 1 / eta.
+    # The internal reflectance is exact (to the 9 digits the table keeps, and interpolated below
+    # it between iors); Mitsuba's fit (Egan and Hilgeman, at its relative index 1 / eta) is 0.08%
+    # above.
+    exact = coat_tables.smooth_internal_reflectance(IOR)
+    assert abs(r_in - exact) < 1e-9
+    for eta in (1.05, 1.333, 1.77, 2.4):
+        exact_eta = coat_tables.smooth_internal_reflectance(eta)
+        assert exact_eta - 1e-4 < coat.inner_diffuse_reflectance(eta) <= exact_eta + 1e-9
     x = 1 / IOR
-    assert close(r_in, 0.0636 / x + x * (x * -1.4399 + 0.7099) + 0.6681)
+    assert 0.0 < (0.0636 / x + x * (x * -1.4399 + 0.7099) + 0.6681) - exact < 1e-3
     for _ in range(100):
         wo, wi = random_upper(rng), random_upper(rng)
         got = pl.plastic_eval(0.0, 0.0, IOR, ALBEDO, nonlinear, True, wo, wi)
@@ -236,3 +243,164 @@ def test_tables_meet_the_smooth_coat_and_interpolate_closely():
         fresh = coat_tables.transmittance(eta, alpha, [mu])[0]
         assert abs(coat.coat_transmittance(eta, alpha, mu) - fresh) < 3e-3, (eta, alpha, mu)
         assert abs(coat.coat_internal_reflectance(eta, alpha) - coat_tables.internal_reflectance(eta, alpha)) < 3e-3
+
+
+# --- many samples, compiled (slow) -----------------------------------------------------------------
+
+N = 200_000
+# Bins over the upper hemisphere in (t, phi), t = sqrt(theta / (pi / 2)): finer toward the pole,
+# where the glossy lobes of near-normal views peak. Each bin is integrated by SUB_T x SUB_P
+# midpoints: a grazing view's glossy lobe lies along the horizon and is narrow in azimuth (6
+# azimuthal midpoints per bin missed a quarter of its mass in the last ring of bins).
+NT, NP, SUB_T, SUB_P = 40, 40, 6, 24
+# Views: normal, oblique, grazing (85 degrees).
+VIEWS = {"normal": direction(0.0, 0.0), "oblique": direction(1.0, 0.7), "grazing": direction(math.radians(85.0), 2.2)}
+
+
+@numba.njit(cache=False)
+def _bin_integrals(ax, ay, eta, albedo, nonlinear, correlated, wo, which):
+    """Over each (t, phi) bin of the upper hemisphere, the integral of: which 0, plastic_pdf;
+    which 1, plastic_eval's first channel (f . cos, the reflected energy)."""
+    out = np.zeros((NT, NP))
+    dt = 1.0 / (NT * SUB_T)
+    dp = 2.0 * math.pi / (NP * SUB_P)
+    for i in range(NT * SUB_T):
+        t = (i + 0.5) * dt
+        theta = 0.5 * math.pi * t * t
+        jac = math.sin(theta) * math.pi * t * dt * dp
+        for j in range(NP * SUB_P):
+            phi = (j + 0.5) * dp
+            wi = (math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta))
+            if which == 0:
+                v = pl.plastic_pdf(ax, ay, eta, albedo, nonlinear, correlated, wo, wi)
+            else:
+                v = pl.plastic_eval(ax, ay, eta, albedo, nonlinear, correlated, wo, wi)[0]
+            out[i // SUB_T, j // SUB_P] += v * jac
+    return out
+
+
+@numba.njit(cache=False)
+def _draw(ax, ay, eta, albedo, nonlinear, correlated, wo, n, seed):
+    np.random.seed(seed)
+    wi = np.empty((n, 3))
+    weight = np.empty((n, 3))
+    pdf = np.empty(n)
+    delta = np.empty(n, dtype=np.bool_)
+    for k in range(n):
+        d, w, p, is_delta = pl.plastic_sample(ax, ay, eta, albedo, nonlinear, correlated, wo,
+                                              np.random.random(), np.random.random(), np.random.random())
+        wi[k, 0], wi[k, 1], wi[k, 2] = d
+        weight[k, 0], weight[k, 1], weight[k, 2] = w
+        pdf[k] = p
+        delta[k] = is_delta
+    return wi, weight, pdf, delta
+
+
+def _bin_of(wi):
+    theta = np.arccos(np.clip(wi[:, 2], -1, 1))
+    t = np.sqrt(theta / (0.5 * np.pi))
+    phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), 2 * np.pi)
+    it = np.clip((t * NT).astype(int), 0, NT - 1)
+    ip = np.clip((phi / (2 * np.pi) * NP).astype(int), 0, NP - 1)
+    return np.bincount(it * NP + ip, minlength=NT * NP)
+
+
+SAMPLED_COATS = [(0.0, 0.0), (0.1, 0.1), (0.5, 0.5), (0.3, 0.08)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("ax,ay", SAMPLED_COATS)
+@pytest.mark.parametrize("view", sorted(VIEWS))
+def test_sampler_follows_its_own_pdf(ax, ay, view):
+    """Chi-square of the non-delta samples' directions against plastic_pdf integrated over bins,
+    with one more bin for the failed samples (a microfacet reflection below the surface), whose
+    probability is what the pdf leaves of 1 - P(mirror); the smooth mirror's share is binomial."""
+    wo = VIEWS[view]
+    probs = _bin_integrals(ax, ay, IOR, ALBEDO, False, True, wo, 0).ravel()
+    wi, weight, pdf, delta = _draw(ax, ay, IOR, ALBEDO, False, True, wo, N, SEED + 10)
+    assert np.isfinite(wi).all() and np.isfinite(weight).all() and np.isfinite(pdf).all()
+    p_mirror = pl.plastic_specular_probability(ax, ay, IOR, ALBEDO, wo[2]) if ax == 0.0 else 0.0
+    assert binomial_p_value(int(delta.sum()), N, p_mirror) > ALPHA
+    # The density of the non-delta part integrates to what the mirror leaves, less any failures.
+    assert probs.sum() <= 1.0 - p_mirror + 1e-3
+    if ax == 0.0:
+        assert abs(probs.sum() - (1.0 - p_mirror)) < 1e-3
+    rest = ~delta
+    failed = rest & (pdf == 0.0)
+    assert (weight[failed] == 0.0).all() and (wi[failed, 2] <= 0.0).all()
+    ok = rest & ~failed
+    counts = np.append(_bin_of(wi[ok]), failed.sum())
+    total = 1.0 - p_mirror
+    expected = np.append(probs, max(0.0, total - probs.sum())) / total
+    p, dof = chi2_test(counts, expected / expected.sum())
+    assert dof > 50
+    assert p > ALPHA, (p, dof)
+    # The sampler's pdf is plastic_pdf at its direction (spot check).
+    for k in np.flatnonzero(ok)[:200]:
+        assert pdf[k] == pl.plastic_pdf(ax, ay, IOR, ALBEDO, False, True, wo, tuple(wi[k]))
+
+
+@pytest.mark.slow
+def test_the_chi_square_check_rejects_another_coat():
+    """Control: directions drawn for one roughness fail against the pdf of another."""
+    wo = VIEWS["oblique"]
+    probs = _bin_integrals(0.1, 0.1, IOR, ALBEDO, False, True, wo, 0).ravel()
+    wi, _, pdf, _ = _draw(0.15, 0.15, IOR, ALBEDO, False, True, wo, N, SEED + 11)
+    ok = pdf > 0.0
+    counts = np.append(_bin_of(wi[ok]), (~ok).sum())
+    expected = np.append(probs, max(0.0, 1.0 - probs.sum()))
+    assert chi2_test(counts, expected / expected.sum())[0] < 1e-12
+
+
+WHITE = (1.0, 1.0, 1.0)
+
+
+def furnace(ax, ay, eta, wo, seed):
+    """(sample mean and standard error of the weights, delta included; the same by quadrature of
+    eval plus the mirror's F): the fraction of a uniform white environment a white plastic returns
+    toward wo."""
+    _, weight, _, _ = _draw(ax, ay, eta, WHITE, False, True, wo, N, seed)
+    mean, se = weight[:, 0].mean(), weight[:, 0].std() / math.sqrt(N)
+    quad = _bin_integrals(ax, ay, eta, WHITE, False, True, wo, 1).sum()
+    if ax == 0.0:
+        quad += coat.coat_reflectance(wo[2], eta)
+    return mean, se, quad
+
+
+# (alpha, view) -> the band the returned energy must lie in, white base, ior 1.5 (measured by
+# quadrature, and by sampling within its noise).
+# A smooth coat loses nothing: what the base sends up and the coat reflects down is summed
+# exactly (the internal reflectance is exact, see coat.py; Mitsuba's fit returns 1.001).
+# A rough coat loses much more, and it is Mitsuba 3's roughplastic model, not a fault of this
+# code: single-scattering GGX drops the light its microfacets mask, at the coat's reflection, at
+# each crossing, and above all inside, where the base's light at grazing angles, which a smooth
+# coat would totally reflect back down, is partly masked: the internal reflectance falls from
+# 0.596 (smooth) to 0.560 (alpha 0.1), 0.294 (0.5) and 0.119 (1), and each trip under the coat
+# loses the difference. Mitsuba 3.9's own roughplastic returns 0.909, 0.541 and 0.337 at a normal
+# view (its sampler, 40,000 samples, +-0.0005; its internal reflectance is 1.3% lower at alpha
+# 0.1, see coat_tables.py), this one 0.924, 0.543 and 0.336.
+FURNACE_BANDS = {
+    (0.0, "normal"): (0.9999, 1.0001), (0.0, "grazing"): (0.9999, 1.0001),
+    (0.1, "normal"): (0.915, 0.935), (0.1, "grazing"): (0.865, 0.885),
+    (0.3, "normal"): (0.69, 0.71),
+    (0.5, "normal"): (0.535, 0.55), (0.5, "grazing"): (0.43, 0.445),
+    (1.0, "normal"): (0.33, 0.345), (1.0, "grazing"): (0.18, 0.20),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("alpha,view", sorted(FURNACE_BANDS))
+def test_white_furnace(alpha, view):
+    mean, se, quad = furnace(alpha, alpha, IOR, VIEWS[view], SEED + 12)
+    assert abs(mean - quad) < z_limit(len(FURNACE_BANDS)) * se + 2e-4, (mean, se, quad)
+    lo, hi = FURNACE_BANDS[(alpha, view)]
+    assert lo <= quad <= hi, quad
+    assert quad <= 1.0 + 1e-6
+
+
+@pytest.mark.slow
+def test_white_furnace_without_a_coat_returns_everything():
+    for view in VIEWS.values():
+        mean, se, quad = furnace(0.0, 0.0, 1.0, view, SEED + 13)
+        assert se < 1e-12 and abs(mean - 1.0) < 1e-12  # every weight is the albedo, 1
+        assert abs(quad - 1.0) < 1e-3

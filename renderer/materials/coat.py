@@ -57,9 +57,9 @@ def coat_reflectance(cos_o, eta):
 def inner_diffuse_reflectance(eta):
     """A smooth coat's reflectance for light from inside, averaged over a cosine-weighted
     hemisphere (total internal reflection included), for eta >= 1: the exact values tabulated
-    every 0.01 of the ior up to 5, interpolated linearly (the function is concave, so within
-    the table this errs low, by at most 1e-4 at ior 1.5: a white plastic never returns more than
-    it receives), clamped above 5 and 0 at eta = 1. For a coat less dense than the outside
+    every 0.01 of the ior up to 5, interpolated linearly (the function is concave, so between
+    grid points this errs low, by less than 1e-4: a white plastic never returns more than it
+    receives), clamped above 5 and 0 at eta = 1. For a coat less dense than the outside
     (eta < 1, no total internal reflection inside) Mitsuba's fit, d'Eon and Irving (2011), a
     polynomial in eta accurate to 0.2%."""
     if eta == 1.0:

@@ -74,7 +74,7 @@ def _base_channel(a, nonlinear, r_in):
     """One channel of the base's albedo with the coat's internal reflections summed."""
     den = 1.0 - (a * r_in if nonlinear else r_in)
     # R_in < 1 and a <= 1 keep den > 0; an albedo above 1 with `nonlinear` could reach 0.
-    return a / den if den > 1e-6 else a * 1e6
+    return a / max(den, 1e-6)
 
 
 @target.device

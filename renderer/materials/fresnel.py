@@ -46,10 +46,9 @@ def _conductor_channel(cos_i, eta, k):
     term3 = a2pb2 * c2 + s2 * s2
     term4 = term2 * s2
     den_p = term3 + term4
-    if den_p <= 0.0:
-        return rs
-    rp = rs * (term3 - term4) / den_p
-    return 0.5 * (rs + rp)
+    rp = rs * (term3 - term4) / den_p if den_p > 0.0 else rs
+    # Clamped: where the index is (nearly) 1 + 0i the differences above round to about -1e-17.
+    return min(1.0, max(0.0, 0.5 * (rs + rp)))
 
 
 @target.device

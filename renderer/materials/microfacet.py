@@ -58,11 +58,13 @@ def _smith_root(ax, ay, w):
 def ggx_lambda(ax, ay, w):
     """Smith's Lambda(w) for GGX: (sqrt(1 + (ax^2 w.x^2 + ay^2 w.y^2) / w.z^2) - 1) / 2.
 
-    Even in w.z. At w.z = 0 (infinite in theory) it returns LAMBDA_AT_GRAZING."""
+    Even in w.z. At w.z = 0 (infinite in theory) and for a w.z so small that it would overflow it
+    returns LAMBDA_AT_GRAZING."""
     z = abs(w[2])
     if z <= 0.0:
         return LAMBDA_AT_GRAZING
-    return 0.5 * (_smith_root(ax, ay, w) - z) / z
+    # Clamped: for a subnormal w.z the quotient overflows.
+    return min(LAMBDA_AT_GRAZING, 0.5 * (_smith_root(ax, ay, w) - z) / z)
 
 
 @target.device

@@ -8,7 +8,7 @@ from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import INSTANCES
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
-from ..materials import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from ..materials import NO_TANGENT, emits, emitted, eval_bsdf, has_density, is_zero, material_at, pdf_bsdf, reads_uv, sample_bsdf
 from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
@@ -84,7 +84,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)
-        color = color_at(S, mat, u, v, p)
+        color, params = material_at(S, mat, u, v, p)
+        tangent = NO_TANGENT
         if emits(S.mat_i, mat):
             e = emitted(S.mat_i, S.mat_f, mat, color, front)
             if nee and prev_pdf > 0.0:
@@ -98,21 +99,22 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # Lights absorb what reaches them (sample_bsdf would say so: direction (0, 0, 0)); ending
             # the path here rather than asking was 3% faster on the Cornell box.
             break
-        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, front, key, bounce_dim(bounce, 0))
+        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, key,
+                                          bounce_dim(bounce, 0))
         if is_zero(new_d):
             break
         # The shadow ray is the path's next segment: only where max_depth allows one more.
-        if nee and bounce + 1 < max_depth and not delta:
+        if nee and bounce + 1 < max_depth and has_density(S.mat_i, mat, params):
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
             if ok and light > 0.0:
-                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, wi)
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, wi)
             else:
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
-                density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, wi)
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -135,7 +137,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, unit(new_d))
+            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, unit(new_d))
             prev_p = p
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by

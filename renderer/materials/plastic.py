@@ -18,9 +18,11 @@ The lobes, as f . cos(theta_i) for light arriving from wi and leaving toward wo:
   coat's internal reflections summed (a / (1 - R_in), or a / (1 - a R_in) when `nonlinear`).
 
 Sampling picks the coat's reflection with probability proportional to (1 - T(wo)) w and the
-base with T(wo) (1 - w), w = 1 / (1 + mean albedo) (Mitsuba's weights: the reflection is favoured
-where the coat reflects much and the base is dark), then a visible GGX normal or a cosine-
-weighted direction. A rough coat's density is the mixture of both; a smooth coat's mirror is a
+base with T(wo) (1 - w), then a visible GGX normal or a cosine-weighted direction. Mitsuba takes
+w = 1 / (1 + the albedo texture's mean); here the density is asked without the colour
+(`dispatch.pdf_bsdf` has none, as the principled material found), so w is Mitsuba's for its
+default albedo, 0.5: w = 2/3, whatever the albedo. The estimate is the same; only its noise
+differs from Mitsuba's for a very dark or very bright base. A rough coat's density is the mixture of both; a smooth coat's mirror is a
 delta, so `plastic_eval` and `plastic_pdf` cover only the base, whose density is scaled by the
 probability of choosing it, and `plastic_sample` returns delta=True only when it chose the
 mirror. The weight of any non-delta sample is computed as plastic_eval / plastic_pdf, so the
@@ -45,28 +47,22 @@ def plastic_is_smooth(ax, ay):
     return ax < MIN_ALPHA and ay < MIN_ALPHA
 
 
-@target.device
-def _specular_weight(albedo):
-    """Mitsuba's steering of samples toward the coat, s / (s + d) with s = 1 (the coat's own
-    colour is white) and d the base's mean albedo."""
-    return 1.0 / (1.0 + (albedo[0] + albedo[1] + albedo[2]) / 3.0)
+# Mitsuba's steering of samples toward the coat, s / (s + d) with s = 1 (the coat's own colour is
+# white) and d the base's mean albedo, taken at Mitsuba's default d = 0.5 (see above).
+SPECULAR_WEIGHT = 1.0 / (1.0 + 0.5)
 
 
 @target.device
-def plastic_specular_probability(ax, ay, eta, albedo, cos_o):
+def plastic_specular_probability(ax, ay, eta, cos_o):
     """Probability that `plastic_sample` picks the coat's reflection for a viewer at cosine
-    cos_o > 0; 1 when neither lobe can carry anything (no coat and a black base)."""
+    cos_o > 0 (0 without a coat, 1 where a smooth coat reflects everything)."""
     if plastic_is_smooth(ax, ay):
         reflected = coat_reflectance(cos_o, eta)
     else:
         reflected = 1.0 - coat_transmittance(eta, math.sqrt(max(ax, MIN_ALPHA) * max(ay, MIN_ALPHA)), cos_o)
-    w = _specular_weight(albedo)
-    p_spec = reflected * w
-    p_base = (1.0 - reflected) * (1.0 - w)
-    total = p_spec + p_base
-    if not total > 0.0:
-        return 1.0
-    return p_spec / total
+    p_spec = reflected * SPECULAR_WEIGHT
+    # > 0: the two weights are, and reflected lies in [0, 1].
+    return p_spec / (p_spec + (1.0 - reflected) * (1.0 - SPECULAR_WEIGHT))
 
 
 @target.device
@@ -110,10 +106,12 @@ def plastic_eval(ax, ay, eta, albedo, nonlinear, correlated, wo, wi):
 @target.device
 def plastic_pdf(ax, ay, eta, albedo, nonlinear, correlated, wo, wi):
     """The density per solid angle with which `plastic_sample` gives wi (its non-delta parts):
-    the probability of each lobe times its own density; 0 unless both directions are above."""
+    the probability of each lobe times its own density; 0 unless both directions are above.
+    `albedo` and `nonlinear` are not read: they are there so that the three functions take the
+    same arguments."""
     if not (wo[2] > 0.0 and wi[2] > 0.0):
         return 0.0
-    p_spec = plastic_specular_probability(ax, ay, eta, albedo, wo[2])
+    p_spec = plastic_specular_probability(ax, ay, eta, wo[2])
     pdf = (1.0 - p_spec) * wi[2] / math.pi
     if not plastic_is_smooth(ax, ay):
         ax = max(ax, MIN_ALPHA)
@@ -146,7 +144,7 @@ def plastic_sample(ax, ay, eta, albedo, nonlinear, correlated, wo, u0, u1, u2):
     points below it."""
     if not wo[2] > 0.0:
         return (0.0, 0.0, 1.0), _ZERO, 0.0, False
-    p_spec = plastic_specular_probability(ax, ay, eta, albedo, wo[2])
+    p_spec = plastic_specular_probability(ax, ay, eta, wo[2])
     if u0 < p_spec:
         if plastic_is_smooth(ax, ay):
             w = coat_reflectance(wo[2], eta) / p_spec

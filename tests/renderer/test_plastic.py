@@ -64,7 +64,7 @@ def test_weight_is_eval_over_pdf_and_delta_only_for_the_smooth_mirror(ax, ay, no
         seen.add(delta)
         if delta:
             assert smooth and pdf == 0.0 and wi == (-wo[0], -wo[1], wo[2])
-            p_spec = pl.plastic_specular_probability(ax, ay, IOR, ALBEDO, wo[2])
+            p_spec = pl.plastic_specular_probability(ax, ay, IOR, wo[2])
             assert u0 < p_spec
             f = naive.fresnel_dielectric(wo[2], 1.0 / IOR)
             assert all(close(w, f / p_spec, rel=1e-12) for w in weight)
@@ -134,11 +134,12 @@ def test_smooth_coat_is_mitsubas_plastic(nonlinear):
         got = pl.plastic_eval(0.0, 0.0, IOR, ALBEDO, nonlinear, True, wo, wi)
         want = mitsuba_plastic(0.0, IOR, ALBEDO, nonlinear, wo, wi, r_in=r_in)
         assert all(close(g, w, rel=1e-12) for g, w in zip(got, want))
-        # Mitsuba's lobe choice: Fresnel times 1 / (1 + mean albedo), against the base's share.
-        s = 1 / (1 + sum(ALBEDO) / 3)
+        # Mitsuba's lobe choice, Fresnel times 1 / (1 + mean albedo) against the base's share, at
+        # its default albedo 0.5 (the density is asked without the colour).
+        s = 1 / (1 + 0.5)
         f_o = naive.fresnel_dielectric(wo[2], 1 / IOR)
         want_p = f_o * s / (f_o * s + (1 - f_o) * (1 - s))
-        assert close(pl.plastic_specular_probability(0.0, 0.0, IOR, ALBEDO, wo[2]), want_p, rel=1e-12)
+        assert close(pl.plastic_specular_probability(0.0, 0.0, IOR, wo[2]), want_p, rel=1e-12)
         assert close(pl.plastic_pdf(0.0, 0.0, IOR, ALBEDO, nonlinear, True, wo, wi), (1 - want_p) * wi[2] / math.pi)
 
 
@@ -175,17 +176,20 @@ def test_black_base_shows_only_the_coat():
     black = (0.0, 0.0, 0.0)
     for _ in range(50):
         wo, wi = random_upper(rng), random_upper(rng)
-        # Smooth: only the mirror, always chosen, nothing for light sampling.
+        # Smooth: nothing but the mirror, whose expected weight is F(wo); the base's samples carry 0.
         assert pl.plastic_eval(0.0, 0.0, IOR, black, False, True, wo, wi) == (0.0, 0.0, 0.0)
-        assert pl.plastic_pdf(0.0, 0.0, IOR, black, False, True, wo, wi) == 0.0
-        _, weight, pdf, delta = pl.plastic_sample(0.0, 0.0, IOR, black, False, True, wo, *rng.random(3))
         f = naive.fresnel_dielectric(wo[2], 1 / IOR)
-        assert delta and pdf == 0.0 and all(close(w, f) for w in weight)
-        # Rough: the GGX reflection alone, grey, and only GGX directions are sampled.
+        p_spec = pl.plastic_specular_probability(0.0, 0.0, IOR, wo[2])
+        for u0 in (0.5 * p_spec, 0.5 * (1.0 + p_spec)):
+            _, weight, pdf, delta = pl.plastic_sample(0.0, 0.0, IOR, black, False, True, wo, u0, *rng.random(2))
+            if delta:
+                assert pdf == 0.0 and all(close(w * p_spec, f) for w in weight)
+            else:
+                assert weight == (0.0, 0.0, 0.0)
+        # Rough: the GGX reflection alone, grey.
         got = pl.plastic_eval(0.3, 0.3, IOR, black, False, False, wo, wi)
         want = mitsuba_plastic(0.3, IOR, black, False, wo, wi, 0.0, 0.0, 0.0)
         assert got[0] == got[1] == got[2] and close(got[0], want[0], rel=1e-9)
-        assert pl.plastic_specular_probability(0.3, 0.3, IOR, black, wo[2]) == 1.0
 
 
 EDGE_DIRECTIONS = [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), direction(math.pi / 2 - 1e-9, 0.4),
@@ -319,7 +323,7 @@ def test_sampler_follows_its_own_pdf(ax, ay, view):
     probs = _bin_integrals(ax, ay, IOR, ALBEDO, False, True, wo, 0).ravel()
     wi, weight, pdf, delta = _draw(ax, ay, IOR, ALBEDO, False, True, wo, N, SEED + 10)
     assert np.isfinite(wi).all() and np.isfinite(weight).all() and np.isfinite(pdf).all()
-    p_mirror = pl.plastic_specular_probability(ax, ay, IOR, ALBEDO, wo[2]) if ax == 0.0 else 0.0
+    p_mirror = pl.plastic_specular_probability(ax, ay, IOR, wo[2]) if ax == 0.0 else 0.0
     assert binomial_p_value(int(delta.sum()), N, p_mirror) > ALPHA
     # The density of the non-delta part integrates to what the mirror leaves, less any failures.
     assert probs.sum() <= 1.0 - p_mirror + 1e-3

@@ -9,9 +9,11 @@ far side over the index on the near side, chosen here from the side the ray hit.
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS
+from ..kernel_flags import CONDUCTORS, PLASTICS
 from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
-from .table import CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_K, SLOT_ALPHA_U, SLOT_ALPHA_V
+from .plastic import plastic_eval, plastic_pdf, plastic_sample
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_NONLINEAR, PLASTIC, SLOT_ALPHA_U,
+                    SLOT_ALPHA_V)
 
 _BLACK = (0.0, 0.0, 0.0)
 _UP = (0.0, 0.0, 1.0)
@@ -29,6 +31,11 @@ def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                                 _row3(mat_f, mat, MAT_K), color, correlated, wo, u0, u1, u2)
+    if PLASTICS and kind == PLASTIC:
+        # Opaque, coated on whichever side was hit (as a lambertian surface is two-sided): the
+        # row's ior is the coat's over the air's, front or back.
+        return plastic_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], color,
+                              mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -39,6 +46,9 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                               _row3(mat_f, mat, MAT_K), color, correlated, wo, wi)
+    if PLASTICS and kind == PLASTIC:
+        return plastic_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], color,
+                            mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, wi)
     return _BLACK
 
 
@@ -49,6 +59,9 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                              _row3(mat_f, mat, MAT_K), _BLACK, correlated, wo, wi)
+    if PLASTICS and kind == PLASTIC:
+        return plastic_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], _BLACK,
+                           mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, wi)
     return 0.0
 
 
@@ -57,4 +70,8 @@ def family_has_density(kind, params):
     """Whether the family of `kind` with these parameters has a non-delta part."""
     if CONDUCTORS and kind == CONDUCTOR:
         return not conductor_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
+    if PLASTICS and kind == PLASTIC:
+        # The base under the coat always has a density, whatever the coat (a smooth coat's mirror
+        # is mixed with it); a black base gives eval 0, which costs shadow rays but no bias.
+        return True
     return False

@@ -22,11 +22,12 @@ base with T(wo) (1 - w), then a visible GGX normal or a cosine-weighted directio
 w = 1 / (1 + the albedo texture's mean); here the density is asked without the colour
 (`dispatch.pdf_bsdf` has none, as the principled material found), so w is Mitsuba's for its
 default albedo, 0.5: w = 2/3, whatever the albedo. The estimate is the same; only its noise
-differs from Mitsuba's for a very dark or very bright base. A rough coat's density is the mixture of both; a smooth coat's mirror is a
-delta, so `plastic_eval` and `plastic_pdf` cover only the base, whose density is scaled by the
-probability of choosing it, and `plastic_sample` returns delta=True only when it chose the
-mirror. The weight of any non-delta sample is computed as plastic_eval / plastic_pdf, so the
-two agree exactly.
+differs from Mitsuba's for a very dark or very bright base.
+
+A rough coat's density is the mixture of both lobes'. A smooth coat's mirror is a delta, so
+`plastic_eval` and `plastic_pdf` cover only the base, whose density is scaled by the probability
+of choosing it, and `plastic_sample` returns delta=True only when it chose the mirror. The weight
+of any non-delta sample is computed as plastic_eval / plastic_pdf, so the two agree exactly.
 """
 
 import math
@@ -61,7 +62,7 @@ def plastic_specular_probability(ax, ay, eta, cos_o):
     else:
         reflected = 1.0 - coat_transmittance(eta, math.sqrt(max(ax, MIN_ALPHA) * max(ay, MIN_ALPHA)), cos_o)
     p_spec = reflected * SPECULAR_WEIGHT
-    # > 0: the two weights are, and reflected lies in [0, 1].
+    # The denominator is (1 + reflected) / 3 > 0, reflected lying in [0, 1].
     return p_spec / (p_spec + (1.0 - reflected) * (1.0 - SPECULAR_WEIGHT))
 
 

@@ -2,7 +2,8 @@
 
 TRANSMITTANCE[ior, roughness, cosine] and INTERNAL_REFLECTANCE[ior, roughness] of a GGX
 dielectric coat, on the grids IOR_*, ROUGHNESS_* and COSINE_* (first value, step, count);
-SMOOTH_INTERNAL_REFLECTANCE[ior] of a smooth coat, on the grid SMOOTH_IOR_*."""
+SMOOTH_INTERNAL_REFLECTANCE[ior] of a smooth coat, on the grid SMOOTH_IOR_*.
+The rough internal reflectance averaged over cosines by Gauss-Legendre."""
 
 import numpy as np
 

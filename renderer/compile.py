@@ -23,7 +23,7 @@ from scenefmt.shapes import sphere_values
 from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
-from .materials import MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
+from .materials import MAT_BUMP_MAP, MAT_NORMAL_MAP, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
@@ -142,7 +142,10 @@ class _Walk:
         if shape.kind == "mesh":
             tree.meshes.append((meshes.mesh_rows(shape.mesh, m, shape.model.smooth), mat))
             return True
-        as_box = mat is not None and not self.textures.reads_uv(self.mat_i[mat][MAT_TEXTURE])
+        # A box row has no (u, v) and no tangents: a material that reads (u, v) or has a normal or
+        # bump map gets the six faces as quads.
+        as_box = (mat is not None and not self.textures.reads_uv(self.mat_i[mat][MAT_TEXTURE])
+                  and self.mat_i[mat][MAT_NORMAL_MAP] < 0 and self.mat_i[mat][MAT_BUMP_MAP] < 0)
         surface = shape_rows(shape.model, m, self.similarity(m), self.shutter, as_box)
         if surface is None:
             return False

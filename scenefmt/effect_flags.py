@@ -40,6 +40,8 @@ EFFECT_FLAGS = (
     EffectFlag("environment", "environment map",
                "an image background: its lookup, and with `integrator: mis` its sampling as a light"),
     EffectFlag("meshes", "triangle meshes", "the ray's sheared frame and the watertight triangle test"),
+    EffectFlag("shading_maps", "normal and bump maps",
+               "a hit's tangent frame (dp/du, dp/dv) and the shading normal a normal or bump map bends"),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 

@@ -108,6 +108,15 @@ def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Un
     return None
 
 
+def _map_of(material) -> str:
+    """Which shading map a material node has ("normal map", "bump map"), or "" for none."""
+    if getattr(material.model, "normal_map", None) is not None:
+        return "normal map"
+    if getattr(material.model, "bump_map", None) is not None:
+        return "bump map"
+    return ""
+
+
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
@@ -116,6 +125,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     emitters: list = []
     dielectrics: list = []
     with_meshes: list[ShapeNode] = []
+    with_maps: list = []  # shapes (or runs of spheres) whose material has a normal or bump map
+    map_kind: dict[int, str] = {}  # id of an entry of with_maps -> "normal map" or "bump map"
     textures_by_kind: dict[str, list[ShapeNode]] = {}
     similar: dict = {}  # transform -> whether it is a similarity
     kinds_of: dict = {}  # (material, medium) -> the kinds of texture they read, but solid
@@ -140,6 +151,9 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                     emitters.append(part)
                 if material.kind == "dielectric":
                     dielectrics.append(part)
+                if _map_of(material):
+                    with_maps.append(part)
+                    map_kind[id(part)] = _map_of(material)
                 for kind in texture_kinds(material, None):
                     textures_by_kind.setdefault(kind, []).append(part)
             continue
@@ -158,6 +172,9 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)
+            if member.material is not None and _map_of(member.material):
+                with_maps.append(member)
+                map_kind[id(member)] = _map_of(member.material)
             for kind in texture_kinds(member.material, member.interior):
                 textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
@@ -191,6 +208,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
     if with_meshes:
         found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
+    if with_maps:
+        found["shading_maps"] = Effect("", True, _first(with_maps, lambda m: f"{format_path(m.path)} has a {map_kind[id(m)]}"))
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -9,7 +9,10 @@ integrator (`tracing/integrator.trace`) asks only these and names no material:
   solid angle, and whether the lobe is a delta (no density: never light-sampled);
 - `eval_bsdf`: f . cos for a given pair of directions, as colour times number;
 - `pdf_bsdf`: the density `sample_bsdf` gives a direction, for multiple importance sampling;
-- `reads_uv`: whether the hit's (u, v) is needed at all.
+- `reads_uv`: whether the hit's (u, v) is needed at all;
+- `has_shading_map` / `shading_frame` / `same_side`: whether a normal or bump map bends its
+  shading normal, the bent normal and tangent (shading_normal.py), and whether a direction
+  lies on the same side of the surface as of the bent normal's plane (else it carries nothing).
 
 Each dispatches by kind to the material's own functions below. Lambertian and isotropic have a
 density, so light sampling and MIS serve them; metal and dielectric are deltas; a diffuse
@@ -26,12 +29,15 @@ from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_directio
                     metal_direction, random_unit_vector, reflect)
 from .dispatch import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
 from .fresnel import fresnel_dielectric
-from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
-                    MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
+from .shading_normal import has_shading_map, same_side, shading_frame
+from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_BUMP_HEIGHT, MAT_BUMP_MAP, MAT_FUZZ, MAT_IOR,
+                    MAT_KIND, MAT_NORMAL_MAP, MAT_NORMAL_SCALE, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL,
+                    material_rows, phase_function)
 
 __all__ = [
-    "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_FUZZ", "MAT_IOR", "MAT_KIND",
-    "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
-    "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
-    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf",
+    "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_BUMP_HEIGHT", "MAT_BUMP_MAP",
+    "MAT_FUZZ", "MAT_IOR", "MAT_KIND", "MAT_NORMAL_MAP", "MAT_NORMAL_SCALE", "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
+    "eval_bsdf", "fresnel_dielectric", "has_shading_map", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
+    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "same_side", "sample_bsdf",
+    "shading_frame",
 ]

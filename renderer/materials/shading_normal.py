@@ -46,9 +46,11 @@ import math
 
 from .. import target
 
+from ..kernel_flags import SHADING_MAPS
 from ..numerics.frame import basis
 from ..numerics.vec import cross, dot, madd, neg, scale, unit
 from ..textures import TEX_HEIGHT, TEX_IMAGE, TEX_KIND, TEX_WIDTH, texture_value
+from .table import MAT_BUMP_HEIGHT, MAT_BUMP_MAP, MAT_NORMAL_MAP, MAT_NORMAL_SCALE
 
 # Rule 1: the least Z (cosine to the surface's normal, before normalising) of a map's normal.
 MIN_MAP_Z = 0.01
@@ -172,3 +174,43 @@ def same_side(w, n_surface, n_shading):
     of the shading normal's plane: a direction that is a reflection for one and a transmission
     for the other carries nothing. True when the two normals are one."""
     return dot(w, n_surface) * dot(w, n_shading) >= 0.0
+
+
+# --- what the integrator asks ------------------------------------------------------------------
+
+
+@target.device
+def has_shading_map(mat_i, mat):
+    """Whether material row `mat` has a normal map or a bump map: only then does a hit on it
+    need (u, v), its tangent frame and `shading_frame`. A kernel compiled without
+    SHADING_MAPS has no code for any of it."""
+    return SHADING_MAPS and (mat_i[mat, MAT_NORMAL_MAP] >= 0 or mat_i[mat, MAT_BUMP_MAP] >= 0)
+
+
+@target.device
+def shading_frame(S, mat, n, front_face, dpdu, dpdv, u, v, p, d):
+    """The shading normal on the ray's side and the unit tangent (along dp/du) that material row
+    `mat` (one that `has_shading_map`) has at a hit of the flat scene S: n the unit outward
+    normal there, `front_face` whether the ray (direction d) came from outside, dp/du and
+    dp/dv the shape's (shapes/dispatch.world_derivatives), (u, v) and p the hit's.
+
+    The bump map bends n first, then the normal map bends that in its own tangent frame (the
+    two compose as a detail map over a shape); the result is turned to the ray's side and kept
+    facing the viewer (rule 2). The tangent is dp/du made orthogonal to n, which a material's
+    frame (numerics/frame.frame_of) makes orthogonal to the shading normal in turn."""
+    t, b = tangent_frame(n, dpdu, dpdv)
+    shading = n
+    bump = S.mat_i[mat, MAT_BUMP_MAP]
+    if bump >= 0:
+        dhdu, dhdv = height_slopes(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, bump,
+                                   S.mat_f[mat, MAT_BUMP_HEIGHT], u, v, p, dpdu, dpdv)
+        shading = normal_from_bump(n, dpdu, dpdv, dhdu, dhdv)
+    normal_map = S.mat_i[mat, MAT_NORMAL_MAP]
+    if normal_map >= 0:
+        tm, bm = tangent_frame(shading, dpdu, dpdv) if bump >= 0 else (t, b)
+        rgb = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, normal_map, u, v, p)
+        shading = normal_from_map(shading, tm, bm, rgb, S.mat_f[mat, MAT_NORMAL_SCALE])
+    n_front = n if front_face else neg(n)
+    if not front_face:
+        shading = neg(shading)
+    return facing_viewer(shading, n_front, neg(unit(d))), t

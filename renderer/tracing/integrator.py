@@ -6,12 +6,13 @@ import math
 from .. import target
 from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import INSTANCES
+from ..kernel_flags import INSTANCES, SHADING_MAPS
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
-from ..materials import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from ..materials import (color_at, emits, emitted, eval_bsdf, has_shading_map, is_zero, pdf_bsdf, reads_uv, same_side,
+                         sample_bsdf, shading_frame)
 from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
+from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from .shadow import transmittance
 from .traverse import intersect_scene, traversal_scratch
@@ -71,16 +72,20 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         mat = hit_material(S.prims_i, prim)
         # A scattering event in a medium has no surface: its point is found on the world's ray.
         volume = is_volume(S.prims_i, prim)
-        # (u, v) only where the material's texture reads it (an image): see surface().
-        want_uv = reads_uv(S.mat_i, mat)
+        # A normal or bump map bends the normal the material sees (never the geometric one).
+        maps = has_shading_map(S.mat_i, mat)
+        # (u, v) only where the material's texture reads it (an image) or a map does: see surface().
+        want_uv = reads_uv(S.mat_i, mat) or maps
         if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
             oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
             dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
             po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
             p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
             n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
+            n_tree = no
         else:
             p, n, u, v = interaction(S, prim, o, d, t, time, want_uv)
+            n_tree = n
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)
@@ -98,21 +103,33 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # Lights absorb what reaches them (sample_bsdf would say so: direction (0, 0, 0)); ending
             # the path here rather than asking was 3% faster on the Cornell box.
             break
-        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, front, key, bounce_dim(bounce, 0))
+        # The normal the material's lobe is built around: the surface's, or the one a map bends
+        # (materials/shading_normal.py). The surface's stays for the side of the hit and for
+        # where the next ray starts.
+        n_shade = n_front
+        # SHADING_MAPS first: a kernel compiled without it prunes these branches before typing them.
+        if SHADING_MAPS and maps:
+            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+            n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
+        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, d, n_shade, front, key, bounce_dim(bounce, 0))
         if is_zero(new_d):
             break
+        if SHADING_MAPS and maps and not same_side(new_d, n_front, n_shade):
+            # Reflected for the bent normal but through the surface (or the reverse): the path
+            # ends after this vertex's light sample, and no light leaks through the surface.
+            att = (0.0, 0.0, 0.0)
         # The shadow ray is the path's next segment: only where max_depth allows one more.
         if nee and bounce + 1 < max_depth and not delta:
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
-            if ok and light > 0.0:
-                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_front, wi)
+            if ok and light > 0.0 and not (SHADING_MAPS and maps and not same_side(wi, n_front, n_shade)):
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_shade, wi)
             else:
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
-                density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, wi)
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_shade, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -135,7 +152,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_front, unit(new_d))
+            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_shade, unit(new_d))
             prev_p = p
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by

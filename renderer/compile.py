@@ -23,7 +23,8 @@ from scenefmt.shapes import sphere_values
 from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
-from .materials import MAT_BUMP_MAP, MAT_NORMAL_MAP, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I
+from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
+from .materials.table import COLOUR_KEYS, MAT_BUMP_MAP, MAT_NORMAL_MAP, texture_rows_of
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
@@ -118,11 +119,16 @@ class _Walk:
     def material(self, node: MaterialNode) -> int:
         if id(node) in self.mat_rows:
             return self.mat_rows[id(node)]
-        slot = node.textures.get("albedo") or node.textures.get("emit")
+        slot = next((node.textures[key] for key in COLOUR_KEYS if key in node.textures), None)
         # A material without a colour (a dielectric) attenuates by 1: it still needs a texture
         # row, since the kernels look one up for every scattering material.
         texture = self.textures.add(slot) if slot is not None else self.textures.white()
-        return self._material_row(id(node), materials.material_rows(node.model, texture))
+        others = {key: self.textures.add(tex) for key, tex in node.textures.items() if key not in COLOUR_KEYS}
+        return self._material_row(id(node), materials.material_rows(node.model, texture, others))
+
+    def material_reads_uv(self, mat: int) -> bool:
+        """Whether any texture of material row `mat` reads surface (u, v)."""
+        return any(self.textures.reads_uv(row) for row in texture_rows_of(self.mat_i[mat]))
 
     def phase(self, medium: MediumNode) -> int:
         """The material row of the isotropic phase function that scatters inside a medium."""
@@ -143,8 +149,8 @@ class _Walk:
             tree.meshes.append((meshes.mesh_rows(shape.mesh, m, shape.model.smooth), mat))
             return True
         # A box row has no (u, v) and no tangents: a material that reads (u, v) or has a normal or
-        # bump map gets the six faces as quads.
-        as_box = (mat is not None and not self.textures.reads_uv(self.mat_i[mat][MAT_TEXTURE])
+        # bump map (even one of a solid colour, which reads no (u, v)) gets the six faces as quads.
+        as_box = (mat is not None and not self.material_reads_uv(mat)
                   and self.mat_i[mat][MAT_NORMAL_MAP] < 0 and self.mat_i[mat][MAT_BUMP_MAP] < 0)
         surface = shape_rows(shape.model, m, self.similarity(m), self.shutter, as_box)
         if surface is None:
@@ -361,7 +367,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     order = tlas.order
     mat_i = _array(walk.mat_i, MATERIAL_I, np.int32)
     for row in range(len(mat_i)):
-        mat_i[row, MAT_READS_UV] = walk.textures.reads_uv(mat_i[row, MAT_TEXTURE])
+        mat_i[row, MAT_READS_UV] = walk.material_reads_uv(row)
     flat = FlatScene(
         prims_i=cat(prim_i + mesh.prims_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),

@@ -40,8 +40,12 @@ EFFECT_FLAGS = (
     EffectFlag("environment", "environment map",
                "an image background: its lookup, and with `integrator: mis` its sampling as a light"),
     EffectFlag("meshes", "triangle meshes", "the ray's sheared frame and the watertight triangle test"),
-    EffectFlag("shading_maps", "normal and bump maps",
-               "a hit's tangent frame (dp/du, dp/dv) and the shading normal a normal or bump map bends"),
+    EffectFlag("conductors", "conductors", "GGX microfacet reflection with a measured metal's Fresnel"),
+    EffectFlag("rough_dielectrics", "rough and thin glass", "refraction through GGX microfacets, and thin sheets"),
+    EffectFlag("plastics", "plastics", "a dielectric coat over a diffuse base"),
+    EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes"),
+    EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map"),
+    EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture"),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 

@@ -13,6 +13,7 @@ from . import affine
 from .diagnostics import format_path
 from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
+from .materials import SCALAR_SLOTS
 from .scene import ImageBackground, SkyBackground
 
 # (key, name), from the one table of effects: the key is the kernel path's flag
@@ -75,6 +76,29 @@ def _members(group: GroupNode, seen: set) -> Iterator[tuple[Union[ShapeNode, Ins
                 stack.append((m.group, True))
 
 
+# Which effect each material kind calls for, and how `rt validate` says why.
+MATERIAL_KIND_EFFECTS = {"conductor": "conductors", "rough_dielectric": "rough_dielectrics",
+                         "thin_dielectric": "rough_dielectrics", "plastic": "plastics", "principled": "principled"}
+MATERIAL_EFFECT_REASONS = {
+    "conductors": "is a conductor", "rough_dielectrics": "is rough or thin glass", "plastics": "is a plastic",
+    "principled": "is a principled material", "surface_maps": "has a normal or bump map",
+    "parameter_textures": "reads a parameter from a texture",
+}
+
+
+def material_effects(material) -> list[str]:
+    """The effect keys a material node calls for by its kind, its maps and its textured parameters."""
+    keys = []
+    kind = MATERIAL_KIND_EFFECTS.get(material.kind)
+    if kind is not None:
+        keys.append(kind)
+    if "normal_map" in material.textures or "bump_map" in material.textures:
+        keys.append("surface_maps")
+    if any(slot in SCALAR_SLOTS for slot in material.textures):
+        keys.append("parameter_textures")
+    return keys
+
+
 def _texture_tree(tex: TextureNode) -> Iterator[TextureNode]:
     yield tex
     for child in tex.inputs.values():
@@ -108,15 +132,6 @@ def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Un
     return None
 
 
-def _map_of(material) -> str:
-    """Which shading map a material node has ("normal map", "bump map"), or "" for none."""
-    if getattr(material.model, "normal_map", None) is not None:
-        return "normal map"
-    if getattr(material.model, "bump_map", None) is not None:
-        return "bump map"
-    return ""
-
-
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
@@ -125,9 +140,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     emitters: list = []
     dielectrics: list = []
     with_meshes: list[ShapeNode] = []
-    with_maps: list = []  # shapes (or runs of spheres) whose material has a normal or bump map
-    map_kind: dict[int, str] = {}  # id of an entry of with_maps -> "normal map" or "bump map"
     textures_by_kind: dict[str, list[ShapeNode]] = {}
+    by_material_effect: dict[str, list] = {}  # effect key -> the members whose material calls for it
     similar: dict = {}  # transform -> whether it is a similarity
     kinds_of: dict = {}  # (material, medium) -> the kinds of texture they read, but solid
     def texture_kinds(material, interior) -> list[str]:
@@ -151,9 +165,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                     emitters.append(part)
                 if material.kind == "dielectric":
                     dielectrics.append(part)
-                if _map_of(material):
-                    with_maps.append(part)
-                    map_kind[id(part)] = _map_of(material)
+                for key in material_effects(material):
+                    by_material_effect.setdefault(key, []).append(part)
                 for kind in texture_kinds(material, None):
                     textures_by_kind.setdefault(kind, []).append(part)
             continue
@@ -172,9 +185,9 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)
-            if member.material is not None and _map_of(member.material):
-                with_maps.append(member)
-                map_kind[id(member)] = _map_of(member.material)
+            if member.material is not None:
+                for key in material_effects(member.material):
+                    by_material_effect.setdefault(key, []).append(member)
             for kind in texture_kinds(member.material, member.interior):
                 textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
@@ -206,10 +219,10 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
+    for key, members in by_material_effect.items():
+        found[key] = Effect("", True, _first(members, lambda m, key=key: f"{format_path(m.path)} {MATERIAL_EFFECT_REASONS[key]}"))
     if with_meshes:
         found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
-    if with_maps:
-        found["shading_maps"] = Effect("", True, _first(with_maps, lambda m: f"{format_path(m.path)} has a {map_kind[id(m)]}"))
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -21,7 +21,7 @@ from .assets import AssetCache, memory_message
 from .hdr_files import HdrProblem, hdr_header, hdr_peak, is_hdr
 from .loading import SourceDocument
 from .named_files import NamedFileProblem, locate_named_file
-from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Metal
+from .materials import Material, texture_fields
 from .media import ConstantMedium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
 from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, SphereColumns, Triangle
@@ -53,7 +53,7 @@ class TextureNode:
 class MaterialNode:
     """A material; `textures` maps its slot (`albedo`, `emit`) to a texture node."""
 
-    model: Union[Lambertian, Metal, Dielectric, DiffuseLight, Isotropic]
+    model: Material
     name: Optional[str]
     path: tuple
     textures: dict[str, TextureNode] = field(default_factory=dict)
@@ -377,15 +377,15 @@ class _Resolver:
 
     def material(self, model, name: Optional[str], path: tuple) -> MaterialNode:
         node = MaterialNode(model, name, path)
-        for slot in ("albedo", "emit"):
-            if slot in type(model).model_fields:
-                tex = self.texture_slot(getattr(model, slot), path + (slot,))
-                if tex is not None:
-                    node.textures[slot] = tex
-                    if slot == "albedo":
-                        self.check_colour(tex, path + (slot,), bounds.MAX_REFLECTANCE, "a reflectance (albedo)")
-                    else:
-                        self.check_colour(tex, path + (slot,), bounds.MAX_RADIANCE, "an emitted radiance")
+        for slot, value, role in texture_fields(model):
+            where = path + (slot,) if role != "scalar" else path + (slot, "texture")
+            tex = self.texture_slot(value, where)
+            if tex is not None:
+                node.textures[slot] = tex
+                if role == "reflectance":
+                    self.check_colour(tex, where, bounds.MAX_REFLECTANCE, f"a reflectance ({slot})")
+                elif role == "radiance":
+                    self.check_colour(tex, where, bounds.MAX_RADIANCE, "an emitted radiance")
         self.all_materials.append(node)
         return node
 

@@ -6,6 +6,7 @@ random input, the kernel is wrong (or the input sits on a boundary, which caller
 
 from __future__ import annotations
 
+import cmath
 import math
 
 INF = math.inf
@@ -145,3 +146,82 @@ def transform_normal(m, n):
     """World normal of an object normal under world_from_object m: inverse transpose, normalised."""
     inv = inverse(m)
     return unit(tuple(sum(inv[k][i] * n[k] for k in range(3)) for i in range(3)))
+
+
+# --- microfacets and Fresnel (issue 31) ---------------------------------------------------------
+# Textbook forms in angles, as the papers write them; callers skip the boundaries (m.z or w.z 0)
+# where these divide by zero.
+
+
+def ggx_d(ax, ay, m):
+    """Trowbridge-Reitz D(m) = 1 / (pi ax ay cos^4 theta (1 + tan^2 theta (cos^2 phi / ax^2 +
+    sin^2 phi / ay^2))^2) for m.z > 0, else 0."""
+    if m[2] <= 0:
+        return 0.0
+    cos2 = m[2] * m[2]
+    sin2 = 1 - cos2
+    tan2 = sin2 / cos2
+    if sin2 > 0:
+        cos2_phi, sin2_phi = m[0] * m[0] / sin2, m[1] * m[1] / sin2
+    else:
+        cos2_phi, sin2_phi = 1.0, 0.0
+    e = tan2 * (cos2_phi / (ax * ax) + sin2_phi / (ay * ay))
+    return 1 / (math.pi * ax * ay * cos2 * cos2 * (1 + e) ** 2)
+
+
+def ggx_lambda(ax, ay, w):
+    """Smith's Lambda for GGX: (-1 + sqrt(1 + alpha(phi)^2 tan^2 theta)) / 2, with alpha(phi)^2 =
+    ax^2 cos^2 phi + ay^2 sin^2 phi."""
+    cos2 = w[2] * w[2]
+    sin2 = 1 - cos2
+    if sin2 <= 0:
+        return 0.0
+    alpha2 = (ax * ax * w[0] * w[0] + ay * ay * w[1] * w[1]) / sin2
+    return (-1 + math.sqrt(1 + alpha2 * sin2 / cos2)) / 2
+
+
+def smith_g1(ax, ay, w, m):
+    if dot(w, m) * w[2] <= 0:
+        return 0.0
+    return 1 / (1 + ggx_lambda(ax, ay, w))
+
+
+def smith_g(ax, ay, wo, wi, m, correlated=True):
+    if dot(wo, m) * wo[2] <= 0 or dot(wi, m) * wi[2] <= 0:
+        return 0.0
+    if correlated:
+        return 1 / (1 + ggx_lambda(ax, ay, wo) + ggx_lambda(ax, ay, wi))
+    return smith_g1(ax, ay, wo, m) * smith_g1(ax, ay, wi, m)
+
+
+def visible_normal_pdf(ax, ay, w, m):
+    return smith_g1(ax, ay, w, m) * max(0.0, dot(w, m)) * ggx_d(ax, ay, m) / w[2]
+
+
+def fresnel_dielectric(cos_i, eta):
+    """Unpolarised reflectance from Snell's law and the s and p amplitude ratios; eta = incident
+    index over transmitted index."""
+    sin_t = eta * math.sqrt(max(0.0, 1 - cos_i * cos_i))
+    if sin_t >= 1:
+        return 1.0
+    cos_t = math.sqrt(1 - sin_t * sin_t)
+    n1, n2 = eta, 1.0
+    rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t)
+    rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t)
+    return (rs * rs + rp * rp) / 2
+
+
+def fresnel_conductor(cos_i, eta, k):
+    """Unpolarised reflectance at a conductor of complex index n = eta + i k (relative to the
+    incident medium), by the Fresnel equations in complex arithmetic: cos_t from Snell's law
+    sin_t = sin_i / n, then |r_s|^2 and |r_p|^2."""
+    n = complex(eta, k)
+    sin2_i = 1 - cos_i * cos_i
+    cos_t = cmath.sqrt(1 - sin2_i / (n * n))
+    rs = (cos_i - n * cos_t) / (cos_i + n * cos_t)
+    rp = (n * cos_i - cos_t) / (n * cos_i + cos_t)
+    return (abs(rs) ** 2 + abs(rp) ** 2) / 2
+
+
+def schlick(f0, cos):
+    return f0 + (1 - f0) * (1 - cos) ** 5

@@ -3,12 +3,16 @@
 Every material answers the same questions, in the spirit of pbrt's BxDF interface, and the
 integrator (`tracing/integrator.trace`) asks only these and names no material:
 
-- `color_at`: its texture's colour at a hit (the albedo, or a light's radiance), evaluated once;
+- `material_at`: its colour at a hit (the albedo, or a light's radiance: `color_at`) and its
+  parameters there (roughness, metalness, ...: up to eight slots, constants or read from
+  textures), evaluated once and handed to the functions below;
 - `emits` / `emitted`: whether it emits, and the radiance it sends back along the ray;
 - `sample_bsdf`: a scattered direction, the throughput weight f . cos / pdf, the density per
   solid angle, and whether the lobe is a delta (no density: never light-sampled);
 - `eval_bsdf`: f . cos for a given pair of directions, as colour times number;
 - `pdf_bsdf`: the density `sample_bsdf` gives a direction, for multiple importance sampling;
+- `has_density`: whether the material has a non-delta part at all, which light sampling serves
+  whichever lobe `sample_bsdf` chose;
 - `reads_uv`: whether the hit's (u, v) is needed at all;
 - `has_shading_map` / `shading_frame` / `same_side`: whether a normal or bump map bends its
   shading normal, the bent normal and tangent (shading_normal.py), and whether a direction
@@ -27,17 +31,18 @@ The direction of each material is a function of its random inputs (`lambertian_d
 
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
                     metal_direction, random_unit_vector, reflect)
-from .dispatch import color_at, emits, emitted, eval_bsdf, is_zero, pdf_bsdf, reads_uv, sample_bsdf
+from .dispatch import (NO_PARAMETERS, NO_TANGENT, color_at, emits, emitted, eval_bsdf, has_density, is_zero, material_at, pdf_bsdf,
+                       reads_uv, sample_bsdf)
 from .fresnel import fresnel_dielectric
 from .shading_normal import has_shading_map, same_side, shading_frame
-from .table import (CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_BUMP_HEIGHT, MAT_BUMP_MAP, MAT_FUZZ, MAT_IOR,
-                    MAT_KIND, MAT_NORMAL_MAP, MAT_NORMAL_SCALE, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL,
-                    material_rows, phase_function)
+from .table import (CONDUCTOR, PLASTIC, PRINCIPLED, ROUGH_DIELECTRIC, THIN_DIELECTRIC, CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
+                    MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
 
 __all__ = [
-    "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_BUMP_HEIGHT", "MAT_BUMP_MAP",
-    "MAT_FUZZ", "MAT_IOR", "MAT_KIND", "MAT_NORMAL_MAP", "MAT_NORMAL_SCALE", "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
-    "eval_bsdf", "fresnel_dielectric", "has_shading_map", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
-    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "same_side", "sample_bsdf",
-    "shading_frame",
+    "NO_PARAMETERS", "NO_TANGENT", "material_at", "has_density", "CONDUCTOR", "PLASTIC", "PRINCIPLED", "ROUGH_DIELECTRIC",
+    "THIN_DIELECTRIC", "CODES", "DIELECTRIC", "DIFFUSE_LIGHT", "ISOTROPIC", "ISOTROPIC_DENSITY", "LAMBERTIAN", "MAT_FUZZ", "MAT_IOR", "MAT_KIND",
+    "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
+    "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
+    "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf",
+    "has_shading_map", "same_side", "shading_frame",
 ]

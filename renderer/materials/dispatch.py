@@ -3,13 +3,23 @@ material's own functions (see the package's docstring for the contract)."""
 
 from .. import target
 
-from ..kernel_flags import DIELECTRICS, EMITTERS, IMAGE
+from ..kernel_flags import CONDUCTORS, DIELECTRICS, EMITTERS, IMAGE, PARAMETER_TEXTURES, PLASTICS, PRINCIPLED, ROUGH_DIELECTRICS
+from ..numerics.frame import frame_of, to_local, to_world
 from ..numerics.rng import uniform
-from ..numerics.vec import unit
+from ..numerics.vec import neg, unit
 from ..textures import texture_value
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value, metal_direction,
                     random_unit_vector)
-from .table import DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, METAL, MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_READS_UV, MAT_TEXTURE
+from .families import family_eval, family_has_density, family_pdf, family_sample
+from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM,
+                    MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE, MAT_READS_UV, MAT_TEXTURE, METAL)
+
+# Whether any kind with parameter slots can occur: without one, `material_at` reads none.
+MICROFACETS = CONDUCTORS or ROUGH_DIELECTRICS or PLASTICS or PRINCIPLED
+# The parameters of a row that has none: what `material_at` returns for the books' materials.
+NO_PARAMETERS = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+# The tangent of a hit whose shape gives none: the materials then choose any frame about the normal.
+NO_TANGENT = (0.0, 0.0, 0.0)
 
 
 # --- the interface the integrator calls -------------------------------------------------------
@@ -38,6 +48,41 @@ def color_at(S, mat, u, v, p):
 
 
 @target.device
+def parameter(S, mat, slot, u, v, p):
+    """Parameter slot `slot` of material row `mat` at a hit: its constant, or the channel of its
+    texture there times the slot's scale (squared when the texture holds a roughness), within
+    [0, 1] as every slot's meaning requires (table.py lists them)."""
+    value = S.mat_f[mat, MAT_PARAM + slot]
+    if PARAMETER_TEXTURES:
+        row = S.mat_i[mat, MAT_PARAM_TEXTURE + slot]
+        if row >= 0:
+            c = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, row, u, v, p)
+            channel = S.mat_i[mat, MAT_PARAM_CHANNEL + slot]
+            x = value * (c[0] if channel == 0 else c[1] if channel == 1 else c[2])
+            x = min(max(x, 0.0), 1.0)
+            if S.mat_i[mat, MAT_PARAM_SQUARED + slot] != 0:
+                x = x * x
+            return x
+    return value
+
+
+@target.device
+def material_at(S, mat, u, v, p):
+    """What material row `mat` is at a hit of the flat scene S: (colour, parameters), its colour
+    from `color_at` and its eight parameter slots (roughness, metalness, ...: table.py) evaluated
+    once, as pbrt's materials evaluate their textures into a BSDF. The books' materials have no
+    parameters: they get NO_PARAMETERS without a read."""
+    color = color_at(S, mat, u, v, p)
+    if MICROFACETS and S.mat_i[mat, MAT_KIND] >= CONDUCTOR:
+        params = (parameter(S, mat, 0, u, v, p), parameter(S, mat, 1, u, v, p), parameter(S, mat, 2, u, v, p),
+                  parameter(S, mat, 3, u, v, p), parameter(S, mat, 4, u, v, p), parameter(S, mat, 5, u, v, p),
+                  parameter(S, mat, 6, u, v, p), parameter(S, mat, 7, u, v, p))
+    else:
+        params = NO_PARAMETERS
+    return color, params
+
+
+@target.device
 def emits(mat_i, mat):
     """Whether material row `mat` emits light (then `emitted` says how much). The path tracer
     ends a path at an emitter: the books' lights absorb all that reaches them (their
@@ -56,9 +101,9 @@ def emitted(mat_i, mat_f, mat, color, front_face):
 
 
 @target.device
-def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
-    """Scatter the ray of direction d that hit material row `mat` (colour `color` there, see
-    `color_at`): (direction, weight, pdf, delta).
+def sample_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_face, key, dim):
+    """Scatter the ray of direction d that hit material row `mat` (colour `color` and parameters
+    `params` there, see `material_at`): (direction, weight, pdf, delta).
 
     - direction: of the scattered ray, not necessarily of unit length (the books' lambertian
       n + r is the next ray's direction as it is); (0, 0, 0) when the material absorbs the ray
@@ -73,8 +118,10 @@ def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
       mirror direction within a ball of radius `fuzz`, whose density over directions has no
       closed form; treating it as a delta keeps its images as they were.
 
-    `n_front` is the unit normal on the side the ray came from; `front_face` whether that is
-    the outward side; `dim` the first random dimension this bounce may use (up to dim + 8).
+    `n_front` is the unit shading normal on the side the ray came from; `tangent` a unit vector
+    along the surface's dp/du, or NO_TANGENT (the frame of an anisotropic lobe); `front_face`
+    whether that side is the outward one; `dim` the first random dimension this bounce may use
+    (up to dim + 8).
     """
     zero = (0.0, 0.0, 0.0)
     kind = mat_i[mat, MAT_KIND]
@@ -89,11 +136,34 @@ def sample_bsdf(mat_i, mat_f, mat, color, d, n_front, front_face, key, dim):
         return dielectric_direction(d, n_front, front_face, mat_f[mat, MAT_IOR], uniform(key, dim + 8)), color, 0.0, True
     if kind == ISOTROPIC:
         return random_unit_vector(key, dim), color, ISOTROPIC_DENSITY, False
+    if MICROFACETS and kind >= CONDUCTOR:
+        s, t = frame_of(n_front, tangent)
+        wo = to_local(s, t, n_front, neg(unit(d)))
+        wi, weight, pdf, delta = family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, uniform(key, dim),
+                                               uniform(key, dim + 1), uniform(key, dim + 2))
+        if pdf == 0.0 and not delta:
+            return zero, zero, 0.0, False
+        return to_world(s, t, n_front, wi), weight, pdf, delta
     return zero, zero, 0.0, True
 
 
 @target.device
-def eval_bsdf(mat_i, mat_f, mat, color, d, n_front, wi):
+def has_density(mat_i, mat, params):
+    """Whether material row `mat` (parameters `params` at the hit) has a part with a density, which
+    light sampling serves. Asked of the material, not of the lobe `sample_bsdf` chose: a material
+    that mixes a delta lobe with others (a smooth coat over a diffuse base) must have its light
+    sampled whichever lobe the bounce took, or the light estimate would miss the times the delta
+    lobe was chosen. For the books' materials it is exactly `not delta`."""
+    kind = mat_i[mat, MAT_KIND]
+    if kind == LAMBERTIAN or kind == ISOTROPIC:
+        return True
+    if MICROFACETS and kind >= CONDUCTOR:
+        return family_has_density(kind, params)
+    return False
+
+
+@target.device
+def eval_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_face, wi):
     """f . cos of material row `mat` for light arriving from unit direction wi and leaving
     against d, as (tint, value) with f . cos = tint * value (see above); for a medium's
     material the phase function's value, which has no cosine. Non-negative, f reciprocal
@@ -104,11 +174,18 @@ def eval_bsdf(mat_i, mat_f, mat, color, d, n_front, wi):
         return color, lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
         return color, ISOTROPIC_DENSITY
+    if MICROFACETS and kind >= CONDUCTOR:
+        # The whole of f . cos as the tint, and 1 (or 0 where it is black, which spares the
+        # integrator a shadow ray).
+        s, t = frame_of(n_front, tangent)
+        f = family_eval(kind, mat_i, mat_f, mat, color, params, front_face, to_local(s, t, n_front, neg(unit(d))),
+                        to_local(s, t, n_front, wi))
+        return f, 1.0 if (f[0] > 0.0 or f[1] > 0.0 or f[2] > 0.0) else 0.0
     return color, 0.0
 
 
 @target.device
-def pdf_bsdf(mat_i, mat_f, mat, d, n_front, wi):
+def pdf_bsdf(mat_i, mat_f, mat, params, d, n_front, tangent, front_face, wi):
     """The density per solid angle with which `sample_bsdf` gives unit direction wi for a ray
     of direction d; 0 for a delta lobe."""
     kind = mat_i[mat, MAT_KIND]
@@ -116,6 +193,10 @@ def pdf_bsdf(mat_i, mat_f, mat, d, n_front, wi):
         return lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
         return ISOTROPIC_DENSITY
+    if MICROFACETS and kind >= CONDUCTOR:
+        s, t = frame_of(n_front, tangent)
+        return family_pdf(kind, mat_i, mat_f, mat, params, front_face, to_local(s, t, n_front, neg(unit(d))),
+                          to_local(s, t, n_front, wi))
     return 0.0
 
 

@@ -46,7 +46,7 @@ import math
 
 from .. import target
 
-from ..kernel_flags import SHADING_MAPS
+from ..kernel_flags import SURFACE_MAPS
 from ..numerics.frame import basis
 from ..numerics.vec import cross, dot, madd, neg, scale, unit
 from ..textures import TEX_HEIGHT, TEX_IMAGE, TEX_KIND, TEX_WIDTH, texture_value
@@ -183,8 +183,8 @@ def same_side(w, n_surface, n_shading):
 def has_shading_map(mat_i, mat):
     """Whether material row `mat` has a normal map or a bump map: only then does a hit on it
     need (u, v), its tangent frame and `shading_frame`. A kernel compiled without
-    SHADING_MAPS has no code for any of it."""
-    return SHADING_MAPS and (mat_i[mat, MAT_NORMAL_MAP] >= 0 or mat_i[mat, MAT_BUMP_MAP] >= 0)
+    SURFACE_MAPS has no code for any of it."""
+    return SURFACE_MAPS and (mat_i[mat, MAT_NORMAL_MAP] >= 0 or mat_i[mat, MAT_BUMP_MAP] >= 0)
 
 
 @target.device

@@ -6,10 +6,10 @@ import math
 from .. import target
 from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import INSTANCES, SHADING_MAPS
+from ..kernel_flags import INSTANCES, SURFACE_MAPS
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
-from ..materials import (color_at, emits, emitted, eval_bsdf, has_shading_map, is_zero, pdf_bsdf, reads_uv, same_side,
-                         sample_bsdf, shading_frame)
+from ..materials import (NO_TANGENT, emits, emitted, eval_bsdf, has_density, has_shading_map, is_zero, material_at, pdf_bsdf,
+                         reads_uv, same_side, sample_bsdf, shading_frame)
 from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
@@ -89,7 +89,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)
-        color = color_at(S, mat, u, v, p)
+        color, params = material_at(S, mat, u, v, p)
+        tangent = NO_TANGENT
         if emits(S.mat_i, mat):
             e = emitted(S.mat_i, S.mat_f, mat, color, front)
             if nee and prev_pdf > 0.0:
@@ -107,29 +108,30 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         # (materials/shading_normal.py). The surface's stays for the side of the hit and for
         # where the next ray starts.
         n_shade = n_front
-        # SHADING_MAPS first: a kernel compiled without it prunes these branches before typing them.
-        if SHADING_MAPS and maps:
+        # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
+        if SURFACE_MAPS and maps:
             dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
             n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
-        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, d, n_shade, front, key, bounce_dim(bounce, 0))
+        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, key,
+                                          bounce_dim(bounce, 0))
         if is_zero(new_d):
             break
-        if SHADING_MAPS and maps and not same_side(new_d, n_front, n_shade):
+        if SURFACE_MAPS and maps and not same_side(new_d, n_front, n_shade):
             # Reflected for the bent normal but through the surface (or the reverse): the path
             # ends after this vertex's light sample, and no light leaks through the surface.
             att = (0.0, 0.0, 0.0)
         # The shadow ray is the path's next segment: only where max_depth allows one more.
-        if nee and bounce + 1 < max_depth and not delta:
+        if nee and bounce + 1 < max_depth and has_density(S.mat_i, mat, params):
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
-            if ok and light > 0.0 and not (SHADING_MAPS and maps and not same_side(wi, n_front, n_shade)):
-                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, d, n_shade, wi)
+            if ok and light > 0.0 and not (SURFACE_MAPS and maps and not same_side(wi, n_front, n_shade)):
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, wi)
             else:
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
-                density = pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_shade, wi)
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -152,7 +154,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, d, n_shade, unit(new_d))
+            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, unit(new_d))
             prev_p = p
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by

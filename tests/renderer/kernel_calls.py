@@ -26,8 +26,8 @@ from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
 from renderer.numerics.rng import bounce_dim, light_dim, path_key, uniform
-from renderer.materials import (MATERIAL_F, MATERIAL_I, emits, emitted, eval_bsdf, pdf_bsdf, random_unit_vector,
-                                sample_bsdf)
+from renderer.materials import (MATERIAL_F, MATERIAL_I, NO_PARAMETERS, NO_TANGENT, emits, emitted, eval_bsdf, pdf_bsdf,
+                                random_unit_vector, sample_bsdf)
 from renderer.media import medium_hit
 from renderer.textures import texture_value
 
@@ -53,8 +53,8 @@ def scatter_many(kind, fuzz, ior, d, normal, front, seed, n, bounce):
 def _scatter_many(mat_i, mat_f, d, normal, front, seed, n, bounce):
     out = np.empty((n, 3))
     for k in range(n):
-        v = sample_bsdf(mat_i, mat_f, 0, (1.0, 1.0, 1.0), (d[0], d[1], d[2]), (normal[0], normal[1], normal[2]), front,
-                        path_key(seed, k, 0), bounce_dim(bounce, 0))[0]
+        v = sample_bsdf(mat_i, mat_f, 0, (1.0, 1.0, 1.0), NO_PARAMETERS, (d[0], d[1], d[2]),
+                        (normal[0], normal[1], normal[2]), NO_TANGENT, front, path_key(seed, k, 0), bounce_dim(bounce, 0))[0]
         out[k, 0], out[k, 1], out[k, 2] = v[0], v[1], v[2]
     return out
 
@@ -64,41 +64,65 @@ def material_rows(kind, fuzz=0.0, ior=1.0):
     return (np.array([MATERIAL_I.row(kind=kind)], np.int32), np.array([MATERIAL_F.row(fuzz=fuzz, ior=ior)], np.float64))
 
 
-@target.kernel
-def bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce):
+@target.device
+def _tuple8(a):
+    return (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7])
+
+
+def bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce, params=None, tangent=None):
     """`sample_bsdf` of material row 0 for each incoming direction d[k] on a surface with unit
     normal n_front[k] on the ray's side, paths 0..n-1: rows (direction 3, weight 3, pdf, delta,
-    and for the direction's unit vector: `pdf_bsdf`, then `eval_bsdf`'s tint 3 and value)."""
+    and for the direction's unit vector: `pdf_bsdf`, then `eval_bsdf`'s tint 3 and value).
+    `params`: the row's eight parameter slots (zeros by default); `tangent`: one per direction
+    (none by default)."""
+    params = np.zeros(8) if params is None else np.asarray(params, np.float64)
+    tangent = np.zeros_like(np.asarray(d, np.float64)) if tangent is None else np.asarray(tangent, np.float64)
+    return _bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce, params, tangent)
+
+
+@target.kernel
+def _bsdf_samples(mat_i, mat_f, color, d, n_front, front, seed, bounce, params, tangent):
     c = (color[0], color[1], color[2])
+    pr = _tuple8(params)
     out = np.zeros((d.shape[0], 13))
     for k in range(d.shape[0]):
         dk = (d[k, 0], d[k, 1], d[k, 2])
         nk = (n_front[k, 0], n_front[k, 1], n_front[k, 2])
-        wi, weight, pdf, delta = sample_bsdf(mat_i, mat_f, 0, c, dk, nk, front, path_key(seed, k, 0), bounce_dim(bounce, 0))
+        tk = (tangent[k, 0], tangent[k, 1], tangent[k, 2])
+        wi, weight, pdf, delta = sample_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, front, path_key(seed, k, 0),
+                                             bounce_dim(bounce, 0))
         out[k, 0], out[k, 1], out[k, 2] = wi[0], wi[1], wi[2]
         out[k, 3], out[k, 4], out[k, 5] = weight[0], weight[1], weight[2]
         out[k, 6], out[k, 7] = pdf, 1.0 if delta else 0.0
         if wi[0] != 0.0 or wi[1] != 0.0 or wi[2] != 0.0:
             w = unit(wi)
-            out[k, 8] = pdf_bsdf(mat_i, mat_f, 0, dk, nk, w)
-            tint, value = eval_bsdf(mat_i, mat_f, 0, c, dk, nk, w)
+            out[k, 8] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, front, w)
+            tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, front, w)
             out[k, 9], out[k, 10], out[k, 11], out[k, 12] = tint[0], tint[1], tint[2], value
     return out
 
 
-@target.kernel
-def bsdf_values(mat_i, mat_f, color, d, n_front, wi):
+def bsdf_values(mat_i, mat_f, color, d, n_front, wi, params=None, tangent=None, front=True):
     """`eval_bsdf` and `pdf_bsdf` of material row 0 for each (d[k], n_front[k], wi[k]): rows
-    (tint 3, value, pdf)."""
+    (tint 3, value, pdf); `params` and `tangent` as for `bsdf_samples`."""
+    params = np.zeros(8) if params is None else np.asarray(params, np.float64)
+    tangent = np.zeros_like(np.asarray(d, np.float64)) if tangent is None else np.asarray(tangent, np.float64)
+    return _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent, front)
+
+
+@target.kernel
+def _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent, front):
     c = (color[0], color[1], color[2])
+    pr = _tuple8(params)
     out = np.zeros((d.shape[0], 5))
     for k in range(d.shape[0]):
         dk = (d[k, 0], d[k, 1], d[k, 2])
         nk = (n_front[k, 0], n_front[k, 1], n_front[k, 2])
+        tk = (tangent[k, 0], tangent[k, 1], tangent[k, 2])
         wk = (wi[k, 0], wi[k, 1], wi[k, 2])
-        tint, value = eval_bsdf(mat_i, mat_f, 0, c, dk, nk, wk)
+        tint, value = eval_bsdf(mat_i, mat_f, 0, c, pr, dk, nk, tk, front, wk)
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = tint[0], tint[1], tint[2], value
-        out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, dk, nk, wk)
+        out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, front, wk)
     return out
 
 

@@ -1,0 +1,60 @@
+"""The microfacet families by kind, in the local shading frame: which family's functions answer
+for a row of kind CONDUCTOR and up, with the row's columns and the hit's parameter slots read
+into each family's own arguments. `dispatch.py` turns world directions into this frame and back.
+
+Every function here takes wo (toward the viewer, wo.z > 0 in the normal case) and wi in the frame
+whose z is the shading normal on the viewer's side; dielectric families get eta, the index on the
+far side over the index on the near side, chosen here from the side the ray hit.
+"""
+
+from .. import target
+
+from ..kernel_flags import CONDUCTORS
+from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
+from .table import CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_K, SLOT_ALPHA_U, SLOT_ALPHA_V
+
+_BLACK = (0.0, 0.0, 0.0)
+_UP = (0.0, 0.0, 1.0)
+
+
+@target.device
+def _row3(mat_f, mat, at):
+    return (mat_f[mat, at], mat_f[mat, at + 1], mat_f[mat, at + 2])
+
+
+@target.device
+def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1, u2):
+    """(wi, weight, pdf, delta) of the family of `kind`; see each family's `_sample`."""
+    correlated = mat_i[mat, MAT_CORRELATED] != 0
+    if CONDUCTORS and kind == CONDUCTOR:
+        return conductor_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
+                                _row3(mat_f, mat, MAT_K), color, correlated, wo, u0, u1, u2)
+    return _UP, _BLACK, 0.0, True
+
+
+@target.device
+def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
+    """f(wo, wi) |cos theta_i| as RGB, the delta parts excluded."""
+    correlated = mat_i[mat, MAT_CORRELATED] != 0
+    if CONDUCTORS and kind == CONDUCTOR:
+        return conductor_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
+                              _row3(mat_f, mat, MAT_K), color, correlated, wo, wi)
+    return _BLACK
+
+
+@target.device
+def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
+    """The density `family_sample` gives wi, the delta parts excluded."""
+    correlated = mat_i[mat, MAT_CORRELATED] != 0
+    if CONDUCTORS and kind == CONDUCTOR:
+        return conductor_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
+                             _row3(mat_f, mat, MAT_K), _BLACK, correlated, wo, wi)
+    return 0.0
+
+
+@target.device
+def family_has_density(kind, params):
+    """Whether the family of `kind` with these parameters has a non-delta part."""
+    if CONDUCTORS and kind == CONDUCTOR:
+        return not conductor_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
+    return False

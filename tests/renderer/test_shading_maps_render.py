@@ -209,12 +209,21 @@ def wild_map(tmp_path, seed=5):
     return "{type: image, file: wild.png, colorspace: linear}"
 
 
+FURNACE_MATERIALS = {
+    "lambertian": "{type: lambertian, albedo: [1, 1, 1], normal_map: wild, normal_scale: %g}",
+    # A rough metal: its lobe is built in the bent frame, where the viewer may be grazing (rule 2).
+    "conductor": "{type: conductor, metal: Ag, roughness: 0.4, normal_map: wild, normal_scale: %g}",
+}
+
+
 @pytest.mark.parametrize("integrator", ["path", "mis"])
 @pytest.mark.parametrize("scale", [1.0, 4.0])
-def test_a_wild_normal_map_in_a_white_furnace_creates_no_energy(tmp_path, integrator, scale):
-    """A white lambertian sphere and floor (albedo 1) in a uniform white background: every path
-    ends in the background with a throughput of at most 1, so every pixel is at most 1 (exactly 1
-    without the map); the camera sees the floor at grazing angles and the sphere's rim."""
+@pytest.mark.parametrize("material", sorted(FURNACE_MATERIALS))
+def test_a_wild_normal_map_in_a_white_furnace_creates_no_energy(tmp_path, integrator, scale, material):
+    """A sphere and a floor, white lambertian (albedo 1) or a rough silver, in a uniform white
+    background: every path ends in the background with a throughput of at most 1 (a sampled
+    lobe's weight is at most 1), so every pixel is at most 1 (the lambertian's exactly 1 without
+    the map); the camera sees the floor at grazing angles and the sphere's rim."""
     graph = scene_file(tmp_path, """
 camera: {look_from: [0, 0.3, 6], look_at: [0, 0.3, 0], vfov: 35}
 image: {width: 24, height: 24, samples_per_pixel: 16, max_depth: 64, seed: 9}
@@ -222,11 +231,11 @@ background: [1, 1, 1]
 textures:
   wild: %s
 materials:
-  white: {type: lambertian, albedo: [1, 1, 1], normal_map: wild, normal_scale: %g}
+  white: %s
 shapes:
   - {type: quad, q: [-50, -1, -50], u: [100, 0, 0], v: [0, 0, 100], material: white}
   - {type: sphere, center: [0, 0.3, 0], radius: 1, material: white}
-""" % (wild_map(tmp_path), scale))
+""" % (wild_map(tmp_path), FURNACE_MATERIALS[material] % scale))
     frame = Frame.of(graph)._replace(integrator=integrator)
     film = render_flat(compile_scene(graph), frame, features=GENERAL).film
     mean = film.mean()
@@ -266,3 +275,19 @@ def test_no_light_leaks_through_a_normal_mapped_wall(tmp_path, integrator):
     assert np.isfinite(films[0].total).all()
     assert (films[0].total == 0.0).all(), films[0].total.max()
     assert (films[1].total > 0.0).mean() > 0.5  # lit (the books' estimator finds the lamp by chance)
+
+
+def test_the_specialised_kernel_renders_a_mapped_scene_as_the_general_one(tmp_path):
+    """A kernel compiled for the scene's effects only (normal and bump maps on, most paths off)
+    gives the general kernel's bits, as every specialised kernel must."""
+    from renderer.variants import features_of
+
+    graph = scene_file(tmp_path, LIT % "{type: lambertian, albedo: [0.7, 0.7, 0.7], normal_map: [0.7, 0.4, 0.9]}")
+    needed = features_of(graph)
+    assert needed.surface_maps and not needed.is_general
+    flat = compile_scene(graph)
+    frame = Frame.of(graph)
+    general = render_flat(flat, frame, needed=needed, features=GENERAL).film
+    special = render_flat(flat, frame, needed=needed, features=needed).film
+    np.testing.assert_array_equal(general.total, special.total)
+    np.testing.assert_array_equal(general.total_sq, special.total_sq)

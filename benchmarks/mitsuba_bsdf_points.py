@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from renderer.materials import conductor as co
+from scenefmt import metals
 
 pytestmark = pytest.mark.slow
 
@@ -69,3 +70,14 @@ def test_smooth_conductor_matches_mitsubas_conductor(mi):
         assert delta and pdf == 0.0
         assert np.allclose(wi, [float(x) for x in bs.wo], atol=1e-6)
         assert np.allclose(ours, [float(x) for x in weight], rtol=1e-5)
+
+
+@pytest.mark.slow
+def test_named_metals_are_mitsubas(mi):
+    presets = {s: s for s in metals.METALS} | {"Ni": "Ni_palik"}
+    for symbol, m in metals.METALS.items():
+        if "Johnson" in m.source:
+            continue
+        params = mi.traverse(mi.load_dict({"type": "conductor", "material": presets[symbol]}))
+        got = [float(x) for x in params["eta.value"]] + [float(x) for x in params["k.value"]]
+        assert max(abs(a - b) for a, b in zip(got, m.eta + m.k)) < 1e-5, symbol

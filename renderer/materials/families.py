@@ -9,9 +9,13 @@ far side over the index on the near side, chosen here from the side the ray hit.
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS
+from ..kernel_flags import CONDUCTORS, ROUGH_DIELECTRICS
 from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
-from .table import CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_K, SLOT_ALPHA_U, SLOT_ALPHA_V
+from .rough_dielectric import (rough_dielectric_eval, rough_dielectric_is_smooth, rough_dielectric_pdf,
+                               rough_dielectric_sample)
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, ROUGH_DIELECTRIC, SLOT_ALPHA_U, SLOT_ALPHA_V,
+                    THIN_DIELECTRIC)
+from .thin_dielectric import thin_dielectric_sample
 
 _BLACK = (0.0, 0.0, 0.0)
 _UP = (0.0, 0.0, 1.0)
@@ -23,12 +27,26 @@ def _row3(mat_f, mat, at):
 
 
 @target.device
+def _eta(mat_f, mat, front_face):
+    """The far side's index over the near side's for a dielectric row: the row's ior when the ray
+    hit the outward side (coming from outside, index 1), its inverse from inside."""
+    ior = mat_f[mat, MAT_IOR]
+    return ior if front_face else 1.0 / ior
+
+
+@target.device
 def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1, u2):
     """(wi, weight, pdf, delta) of the family of `kind`; see each family's `_sample`."""
     correlated = mat_i[mat, MAT_CORRELATED] != 0
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                                 _row3(mat_f, mat, MAT_K), color, correlated, wo, u0, u1, u2)
+    if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
+        return rough_dielectric_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _eta(mat_f, mat, front_face), color,
+                                       correlated, wo, u0, u1, u2)
+    if ROUGH_DIELECTRICS and kind == THIN_DIELECTRIC:
+        # A sheet has air on both sides: its ior, whichever side was hit.
+        return thin_dielectric_sample(mat_f[mat, MAT_IOR], color, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -39,6 +57,9 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                               _row3(mat_f, mat, MAT_K), color, correlated, wo, wi)
+    if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
+        return rough_dielectric_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _eta(mat_f, mat, front_face), color,
+                                     correlated, wo, wi)
     return _BLACK
 
 
@@ -49,6 +70,9 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
     if CONDUCTORS and kind == CONDUCTOR:
         return conductor_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _row3(mat_f, mat, MAT_ETA),
                              _row3(mat_f, mat, MAT_K), _BLACK, correlated, wo, wi)
+    if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
+        return rough_dielectric_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], _eta(mat_f, mat, front_face), _BLACK,
+                                    correlated, wo, wi)
     return 0.0
 
 
@@ -57,4 +81,8 @@ def family_has_density(kind, params):
     """Whether the family of `kind` with these parameters has a non-delta part."""
     if CONDUCTORS and kind == CONDUCTOR:
         return not conductor_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
+    if ROUGH_DIELECTRICS and kind == ROUGH_DIELECTRIC:
+        # By its widths only: at ior 1 the rough lobe is a delta too, and light sampling finds
+        # nothing there (eval 0), which costs shadow rays but no bias.
+        return not rough_dielectric_is_smooth(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V])
     return False

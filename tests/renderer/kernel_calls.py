@@ -26,7 +26,7 @@ from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
 from renderer.numerics.rng import bounce_dim, light_dim, path_key, uniform
-from renderer.materials import (MATERIAL_F, MATERIAL_I, NO_PARAMETERS, NO_TANGENT, emits, emitted, eval_bsdf, pdf_bsdf,
+from renderer.materials import (MATERIAL_F, MATERIAL_I, NO_PARAMETERS, NO_TANGENT, emits, emitted, eval_bsdf, has_density, pdf_bsdf,
                                 random_unit_vector, sample_bsdf)
 from renderer.media import medium_hit
 from renderer.textures import texture_value
@@ -124,6 +124,16 @@ def _bsdf_values(mat_i, mat_f, color, d, n_front, wi, params, tangent, front):
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = tint[0], tint[1], tint[2], value
         out[k, 4] = pdf_bsdf(mat_i, mat_f, 0, pr, dk, nk, tk, front, wk)
     return out
+
+
+@target.kernel
+def _has_density_of(mat_i, params):
+    return has_density(mat_i, 0, _tuple8(params))
+
+
+def has_density_of(mat_i, params):
+    """`has_density` of material row 0 with these eight parameter slots."""
+    return bool(_has_density_of(mat_i, np.asarray(params, np.float64)))
 
 
 @target.kernel

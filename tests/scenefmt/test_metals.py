@@ -47,16 +47,3 @@ def test_colours_are_the_metals_colours():
     # they come out a little warm (iron 0.59, 0.50, 0.46), but never blue.
     for s in ("Fe", "Cr", "Ti", "Ni", "W"):
         assert 0.4 < min(r[s]) and max(r[s]) < 0.72 and r[s][0] >= r[s][2] and r[s][0] - r[s][2] < 0.25, (s, r[s])
-
-
-@pytest.mark.slow
-def test_values_are_mitsubas():
-    mi = pytest.importorskip("mitsuba")
-    mi.set_variant("scalar_rgb")
-    presets = {s: s for s in metals.METALS} | {"Ni": "Ni_palik"}
-    for symbol, m in metals.METALS.items():
-        if "Johnson" in m.source:
-            continue
-        params = mi.traverse(mi.load_dict({"type": "conductor", "material": presets[symbol]}))
-        got = [float(x) for x in params["eta.value"]] + [float(x) for x in params["k.value"]]
-        assert max(abs(a - b) for a, b in zip(got, m.eta + m.k)) < 1e-5, symbol

@@ -82,14 +82,17 @@ def tangent_frame(n, dpdu, dpdv):
 def normal_from_map(n, t, b, rgb, normal_scale):
     """The shading normal (unit, on n's side) a normal map's texel `rgb` gives in the tangent
     frame (t, b, n), glTF's decoding with its scale on X and Y, and rule 1. A flat texel
-    ((0.5, 0.5, z) with z > 0.5) gives n itself, to the bit."""
+    ((0.5, 0.5, z) with z > 0.5) gives n itself, to the bit; so does one that is not finite."""
     x = (2.0 * rgb[0] - 1.0) * normal_scale
     y = (2.0 * rgb[1] - 1.0) * normal_scale
     z = max(2.0 * rgb[2] - 1.0, MIN_MAP_Z)
     if x == 0.0 and y == 0.0:
         return n
-    m = madd(madd(scale(n, z), t, x), b, y)
-    return unit(m)
+    m = unit(madd(madd(scale(n, z), t, x), b, y))
+    # A texel that is not finite (an HDR image may hold inf or NaN) bends nothing.
+    if not (math.isfinite(m[0]) and math.isfinite(m[1]) and math.isfinite(m[2])):
+        return n
+    return m
 
 
 @target.device
@@ -104,7 +107,9 @@ def normal_from_bump(n, dpdu, dpdv, dhdu, dhdv):
     if side == 0.0 or not math.isfinite(side):
         return n
     m = unit(cross(madd(dpdu, n, dhdu), madd(dpdv, n, dhdv)))
-    if m[0] == 0.0 and m[1] == 0.0 and m[2] == 0.0:
+    # Slopes too steep to represent (an infinite or NaN height) leave the normal as it was.
+    if (m[0] == 0.0 and m[1] == 0.0 and m[2] == 0.0) or not (math.isfinite(m[0]) and math.isfinite(m[1])
+                                                             and math.isfinite(m[2])):
         return n
     return neg(m) if side < 0.0 else m
 

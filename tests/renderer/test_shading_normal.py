@@ -119,6 +119,18 @@ def test_normal_scale_multiplies_x_and_y_as_gltf_does():
         np.testing.assert_allclose(mapped(rgb, scale), expected, atol=1e-12)
 
 
+def test_texels_and_slopes_that_are_not_finite_bend_nothing():
+    """An HDR image may hold inf or NaN: the normal stays the surface's, never NaN."""
+    n = (0.0, 0.0, 1.0)
+    for rgb in ((math.inf, 0.5, 1.0), (math.nan, 0.5, 1.0), (0.5, -math.inf, 1.0), (0.7, 0.5, math.inf)):
+        assert sn.normal_from_map.py_func(n, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), rgb, 1.0) == n
+    for dhdu, dhdv in ((math.inf, 0.0), (math.nan, 1.0), (-math.inf, math.inf)):
+        assert sn.normal_from_bump.py_func(n, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), dhdu, dhdv) == n
+    for dpdu in ((math.nan, 0.0, 0.0), (math.inf, 1.0, 0.0)):
+        t, b = sn.tangent_frame.py_func(n, dpdu, (0.0, 1.0, 0.0))
+        assert np.isfinite(t).all() and np.isfinite(b).all()
+
+
 def test_a_texel_pointing_into_the_surface_is_raised_above_it():
     """Rule 1: no valid map holds Z < 0; such a texel gives a normal on the outer side all the same."""
     for rgb in ((1.0, 0.5, 0.0), (0.0, 0.0, 0.0), (0.5, 1.0, 0.3), (1.0, 1.0, 0.5)):

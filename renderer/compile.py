@@ -24,7 +24,7 @@ from . import background, camera, environment, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
-from .materials.table import COLOUR_KEYS, texture_rows_of
+from .materials.table import COLOUR_KEYS, MAT_BUMP_MAP, MAT_NORMAL_MAP, texture_rows_of
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
@@ -148,7 +148,10 @@ class _Walk:
         if shape.kind == "mesh":
             tree.meshes.append((meshes.mesh_rows(shape.mesh, m, shape.model.smooth), mat))
             return True
-        as_box = mat is not None and not self.material_reads_uv(mat)
+        # A box row has no (u, v) and no tangents: a material that reads (u, v) or has a normal or
+        # bump map (even one of a solid colour, which reads no (u, v)) gets the six faces as quads.
+        as_box = (mat is not None and not self.material_reads_uv(mat)
+                  and self.mat_i[mat][MAT_NORMAL_MAP] < 0 and self.mat_i[mat][MAT_BUMP_MAP] < 0)
         surface = shape_rows(shape.model, m, self.similarity(m), self.shutter, as_box)
         if surface is None:
             return False

@@ -15,7 +15,10 @@ integrator (`tracing/integrator.trace`) asks only these and names no material:
 - `pdf_bsdf`: the density `sample_bsdf` gives a direction, for multiple importance sampling;
 - `has_density`: whether the material has a non-delta part at all, which light sampling serves
   whichever lobe `sample_bsdf` chose;
-- `reads_uv`: whether the hit's (u, v) is needed at all.
+- `reads_uv`: whether the hit's (u, v) is needed at all;
+- `has_shading_map` / `shading_frame` / `same_side`: whether a normal or bump map bends its
+  shading normal, the bent normal and tangent (shading_normal.py), and whether a direction
+  lies on the same side of the surface as of the bent normal's plane (else it carries nothing).
 
 Each dispatches by kind to the material's own functions below. Lambertian and isotropic have a
 density, so light sampling and MIS serve them; metal and dielectric are deltas; a diffuse
@@ -30,9 +33,10 @@ The direction of each material is a function of its random inputs (`lambertian_d
 
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
                     metal_direction, random_unit_vector, reflect)
-from .dispatch import (NO_PARAMETERS, NO_TANGENT, color_at, emits, emitted, emitted_at, emitting_rows, eval_bsdf, has_density, is_zero,
+from .dispatch import (MICROFACETS, NO_PARAMETERS, is_anisotropic, NO_TANGENT, color_at, emits, emitted, emitted_at, emitting_rows, eval_bsdf, has_density, is_zero,
                        material_at, pdf_bsdf, reads_uv, sample_bsdf, scatters)
 from .fresnel import fresnel_dielectric
+from .shading_normal import has_shading_map, same_side, shading_frame
 from .table import (CONDUCTOR, PLASTIC, PRINCIPLED, ROUGH_DIELECTRIC, THIN_DIELECTRIC, CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
                     MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
 
@@ -42,4 +46,5 @@ __all__ = [
     "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
     "emitted_at", "emitting_rows", "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
     "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf", "scatters",
+    "has_shading_map", "same_side", "shading_frame", "MICROFACETS", "is_anisotropic",
 ]

@@ -13,7 +13,7 @@ from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_directio
 from .families import family_eval, family_has_density, family_pdf, family_sample
 from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_EMISSION, MAT_EMISSION_STRENGTH,
                     MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE,
-                    MAT_READS_UV, MAT_TEXTURE, METAL)
+                    MAT_READS_UV, MAT_TEXTURE, METAL, SLOT_ALPHA_U, SLOT_ALPHA_V)
 from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 
 # Whether any kind with parameter slots can occur: without one, `material_at` reads none.
@@ -179,6 +179,13 @@ def sample_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_fac
             return zero, zero, 0.0, False
         return to_world(s, t, n_front, wi), weight, pdf, delta
     return zero, zero, 0.0, True
+
+
+@target.device
+def is_anisotropic(mat_i, mat, params):
+    """Whether the lobe of material row `mat` at this hit is stretched along the surface (two GGX
+    widths): it is then laid along the surface's dp/du, which the caller passes as `tangent`."""
+    return MICROFACETS and mat_i[mat, MAT_KIND] >= CONDUCTOR and params[SLOT_ALPHA_U] != params[SLOT_ALPHA_V]
 
 
 @target.device

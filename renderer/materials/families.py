@@ -9,15 +9,15 @@ far side over the index on the near side, chosen here from the side the ray hit.
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS, PRINCIPLED, ROUGH_DIELECTRICS
+from ..kernel_flags import CONDUCTORS, PLASTICS, PRINCIPLED, ROUGH_DIELECTRICS
 from .conductor import conductor_eval, conductor_is_smooth, conductor_pdf, conductor_sample
+from .plastic import plastic_eval, plastic_pdf, plastic_sample
 from .principled import principled_eval, principled_has_density, principled_pdf, principled_sample
 from .rough_dielectric import (rough_dielectric_eval, rough_dielectric_is_smooth, rough_dielectric_pdf,
                                rough_dielectric_sample)
-from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_SPECULAR_COLOR, MAT_THIN_WALLED, ROUGH_DIELECTRIC,
-                    SLOT_ALPHA_U,
-                    SLOT_ALPHA_V, SLOT_CLEARCOAT, SLOT_CLEARCOAT_ALPHA, SLOT_METALLIC, SLOT_SPECULAR, SLOT_TRANSMISSION,
-                    THIN_DIELECTRIC)
+from .table import (CONDUCTOR, MAT_CORRELATED, MAT_ETA, MAT_IOR, MAT_K, MAT_NONLINEAR, MAT_SPECULAR_COLOR, MAT_THIN_WALLED,
+                    PLASTIC, ROUGH_DIELECTRIC, SLOT_ALPHA_U, SLOT_ALPHA_V, SLOT_CLEARCOAT, SLOT_CLEARCOAT_ALPHA,
+                    SLOT_METALLIC, SLOT_SPECULAR, SLOT_TRANSMISSION, THIN_DIELECTRIC)
 from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 from .thin_dielectric import thin_dielectric_sample
 
@@ -56,6 +56,11 @@ def family_sample(kind, mat_i, mat_f, mat, color, params, front_face, wo, u0, u1
                                  params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
                                  params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
                                  mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, u0, u1, u2)
+    if PLASTICS and kind == PLASTIC:
+        # Opaque, coated on whichever side was hit (as a lambertian surface is two-sided): the
+        # row's ior is the coat's over the air's, front or back.
+        return plastic_sample(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], color,
+                              mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, u0, u1, u2)
     return _UP, _BLACK, 0.0, True
 
 
@@ -74,6 +79,9 @@ def family_eval(kind, mat_i, mat_f, mat, color, params, front_face, wo, wi):
                                params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
                                params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
                                mat_i[mat, MAT_THIN_WALLED] != 0, color, correlated, wo, wi)
+    if PLASTICS and kind == PLASTIC:
+        return plastic_eval(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], color,
+                            mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, wi)
     return _BLACK
 
 
@@ -92,6 +100,9 @@ def family_pdf(kind, mat_i, mat_f, mat, params, front_face, wo, wi):
                               params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA],
                               params[SLOT_SPECULAR], _row3(mat_f, mat, MAT_SPECULAR_COLOR), _eta(mat_f, mat, front_face),
                               mat_i[mat, MAT_THIN_WALLED] != 0, _BLACK, correlated, wo, wi)
+    if PLASTICS and kind == PLASTIC:
+        return plastic_pdf(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], mat_f[mat, MAT_IOR], _BLACK,
+                           mat_i[mat, MAT_NONLINEAR] != 0, correlated, wo, wi)
     return 0.0
 
 
@@ -107,4 +118,8 @@ def family_has_density(kind, params):
     if PRINCIPLED and kind == PRINCIPLED_KIND:
         return principled_has_density(params[SLOT_ALPHA_U], params[SLOT_ALPHA_V], params[SLOT_METALLIC],
                                       params[SLOT_TRANSMISSION], params[SLOT_CLEARCOAT], params[SLOT_CLEARCOAT_ALPHA])
+    if PLASTICS and kind == PLASTIC:
+        # The base under the coat always has a density, whatever the coat (a smooth coat's mirror
+        # is mixed with it); a black base gives eval 0, which costs shadow rays but no bias.
+        return True
     return False

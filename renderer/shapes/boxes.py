@@ -98,6 +98,15 @@ def box_surface(data, i, p, d):
     return (p[0], p[1], face), (0.0, 0.0, sign), 0.0, 0.0
 
 
+
+@target.device
+def box_derivatives():
+    """dp/du and dp/dv of a BOX row: (0, 0, 0) both, as its (u, v) is the constant (0, 0). A box
+    whose material reads (u, v) or a shading map is made of six quads instead (`box_row`'s
+    caller), which have their edges."""
+    return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+
 @target.device
 def sample_box_surface(data, i, box_area, u1, u2):
     """A point uniform on the surface of box row i, its outward normal and the density per

@@ -7,14 +7,15 @@ from .. import target
 from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
-from ..kernel_flags import MEDIA, MESHES
-from ..numerics.vec import dot, madd, max_abs
+from ..kernel_flags import INSTANCES, MEDIA, MESHES
+from ..numerics.vec import dot, madd, max_abs, xform_vector
+from ..trees import INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from . import (BOX, DISK, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE, boxes, meshes,
                planar, spheres)
-from .boxes import box_surface, hit_box, sample_box_surface
-from .meshes import mesh_surface, sample_mesh_triangle, sampled_normal
-from .planar import hit_planar, planar_surface, sample_planar_surface
-from .spheres import SPHERE_RADIUS, hit_sphere, sample_sphere_surface, sphere_center, sphere_surface
+from .boxes import box_derivatives, box_surface, hit_box, sample_box_surface
+from .meshes import mesh_derivatives, mesh_surface, sample_mesh_triangle, sampled_normal
+from .planar import hit_planar, planar_derivatives, planar_surface, sample_planar_surface
+from .spheres import SPHERE_RADIUS, hit_sphere, sample_sphere_surface, sphere_center, sphere_derivatives, sphere_surface
 
 
 def shape_rows(model, m, similarity, shutter: tuple[float, float], as_box: bool):
@@ -120,6 +121,45 @@ def interaction(S, prim, o, d, t, time, want_uv):
     if MEDIA and kind == MEDIUM:
         return madd(o, d, t), (1.0, 0.0, 0.0), 0.0, 0.0
     return surface(kind, S, prim, o, d, t, time, want_uv)
+
+
+
+@target.device
+def surface_derivatives(S, prim, n):
+    """dp/du and dp/dv, in the tree's space, of the (u, v) that `interaction` gives at a point of
+    primitive row `prim` of the flat scene S whose unit outward normal there is n (as
+    `interaction` returned it, in the tree's space). Asked only for a hit whose material needs a
+    tangent frame (a normal or a bump map); a caller under an instance carries both to the world
+    as vectors (the linear part of world_from_object).
+
+    Neither is normalised: a bump map's finite differences step along them. (0, 0, 0) where (u, v)
+    has no derivative (a sphere's poles, a BOX row, a medium), and a frame built on them then
+    falls back to any frame. dp/du x dp/dv points outward, except under a mirroring transform or
+    on a mesh whose texture coordinates are mirrored: a tangent frame reads its handedness from
+    the pair (materials/shading_normal.py)."""
+    kind = S.prims_i[prim, PRIM_KIND]
+    if MESHES and kind == MESH_TRIANGLE:
+        return mesh_derivatives(S.tri_i, S.mesh_i, S.verts_f, S.verts_uv, prim - S.prims_f.shape[0])
+    if MEDIA and kind == MEDIUM:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    if kind == SPHERE or kind == MOVING_SPHERE:
+        return sphere_derivatives(kind, S.prims_f, prim, n)
+    if kind == BOX:
+        return box_derivatives()
+    return planar_derivatives(kind, S.prims_f, prim)
+
+
+
+@target.device
+def world_derivatives(S, prim, inst, n_tree):
+    """`surface_derivatives` of a hit on primitive row `prim` placed by instance row `inst`,
+    carried to the world as vectors (the linear part of world_from_object); `n_tree` is the
+    outward normal `interaction` gave in the tree's space."""
+    dpdu, dpdv = surface_derivatives(S, prim, n_tree)
+    if INSTANCES and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
+        return (xform_vector(S.inst_f, inst, INST_WORLD_FROM_OBJECT, dpdu),
+                xform_vector(S.inst_f, inst, INST_WORLD_FROM_OBJECT, dpdv))
+    return dpdu, dpdv
 
 
 @target.device

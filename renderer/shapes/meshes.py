@@ -217,6 +217,38 @@ def mesh_surface(tri_i, mesh_i, verts_f, verts_n, verts_uv, j, o, d, want_uv):
     return p, n, tu, tv
 
 
+
+@target.device
+def mesh_derivatives(tri_i, mesh_i, verts_f, verts_uv, j):
+    """dp/du and dp/dv of mesh triangle j for the (u, v) `mesh_surface` gives, constant over the
+    triangle. With texture coordinates: the solution of e1 = du1 dp/du + dv1 dp/dv, e2 = du2
+    dp/du + dv2 dp/dv for the edges e1, e2 from the first corner and their (u, v) differences
+    (as pbrt and MikkTSpace's per-triangle step do); a triangle whose (u, v) are degenerate (zero
+    area in the texture) gets the barycentric ones. Without: (u, v) are the barycentric weights
+    of corners 1 and 2, so dp/du = e1 and dp/dv = e2."""
+    a, b, c = tri_i[j, TRI_VERTEX], tri_i[j, TRI_VERTEX + 1], tri_i[j, TRI_VERTEX + 2]
+    pa = (verts_f[a, 0], verts_f[a, 1], verts_f[a, 2])
+    e1 = sub((verts_f[b, 0], verts_f[b, 1], verts_f[b, 2]), pa)
+    e2 = sub((verts_f[c, 0], verts_f[c, 1], verts_f[c, 2]), pa)
+    mesh = tri_i[j, TRI_MESH]
+    uvs = mesh_i[mesh, MESH_UVS]
+    if uvs < 0:
+        return e1, e2
+    first = mesh_i[mesh, MESH_FIRST_VERTEX]
+    ka, kb, kc = uvs + a - first, uvs + b - first, uvs + c - first
+    du1, dv1 = verts_uv[kb, 0] - verts_uv[ka, 0], verts_uv[kb, 1] - verts_uv[ka, 1]
+    du2, dv2 = verts_uv[kc, 0] - verts_uv[ka, 0], verts_uv[kc, 1] - verts_uv[ka, 1]
+    det = du1 * dv2 - dv1 * du2
+    # Relative to the (u, v) extent, so that small but valid texture triangles are kept.
+    extent = max(abs(du1), abs(dv1), abs(du2), abs(dv2))
+    if not abs(det) > 1e-9 * extent * extent:
+        return e1, e2
+    inv = 1.0 / det
+    dpdu = ((dv2 * e1[0] - dv1 * e2[0]) * inv, (dv2 * e1[1] - dv1 * e2[1]) * inv, (dv2 * e1[2] - dv1 * e2[2]) * inv)
+    dpdv = ((du1 * e2[0] - du2 * e1[0]) * inv, (du1 * e2[1] - du2 * e1[1]) * inv, (du1 * e2[2] - du2 * e1[2]) * inv)
+    return dpdu, dpdv
+
+
 @target.device
 def sampled_normal(eu, ev):
     """The flat normal of a triangle with edges eu, ev: the one its sampler gives (a smooth

@@ -178,6 +178,27 @@ def planar_surface(kind, data, i, p):
     return n, alpha, beta
 
 
+
+@target.device
+def planar_derivatives(kind, data, i):
+    """dp/du and dp/dv of planar row i for the (u, v) `planar_surface` gives: a quad's or a
+    triangle's edges u and v (u = alpha, v = beta), a disk's radius vectors doubled (u = alpha / 2
+    + 1/2). The edges are recovered from the dual vectors A, B and the normal as `edges` does: u
+    is perpendicular to B and the normal with A . u = 1, v perpendicular to A with B . v = 1."""
+    n = row3(data, i, PLANAR_NORMAL)
+    a = row3(data, i, PLANAR_ALPHA)
+    b = row3(data, i, PLANAR_BETA)
+    eu = cross(b, n)
+    ev = cross(n, a)
+    su, sv = dot(eu, a), dot(ev, b)
+    # Never 0 for a row made by planar_row (A . u = 1 for its u); guarded all the same.
+    eu = scale(eu, 1.0 / su) if su != 0.0 else (0.0, 0.0, 0.0)
+    ev = scale(ev, 1.0 / sv) if sv != 0.0 else (0.0, 0.0, 0.0)
+    if kind == DISK:
+        return scale(eu, 2.0), scale(ev, 2.0)
+    return eu, ev
+
+
 # --- sampling ---------------------------------------------------------------------------------
 
 # A rectangle subtending less than this solid angle is sampled by area: its spherical sampling

@@ -154,6 +154,39 @@ def sphere_surface(kind, data, i, p, time, want_uv):
     return p, n, u, v
 
 
+
+@target.device
+def sphere_derivatives(kind, data, i, n):
+    """dp/du and dp/dv (the tree's space) at the point of sphere row i whose unit outward normal
+    is n, for the (u, v) of `sphere_uv`: u = phi / 2 pi around the object's +y, v = theta / pi
+    from its bottom pole. With (x, y, z) the normal in the object's frame R n (R the row's
+    object_from_world rotation), a point is c + r R^T (sin theta cos psi, -cos theta,
+    -sin theta sin psi) with psi = 2 pi u - pi, theta = pi v, so
+
+        dp/du = 2 pi r R^T (z, 0, -x),    dp/dv = pi r R^T (-x y / s, s, -y z / s),  s = sqrt(x^2 + z^2).
+
+    dp/du x dp/dv points outward. At a pole (s = 0) u has no direction: both are (0, 0, 0), and
+    a shading frame falls back to any frame there (numerics/frame.frame_of)."""
+    r = data[i, SPHERE_RADIUS]
+    k = SPHERE_ROTATION if kind == SPHERE else MOVING_ROTATION
+    x = data[i, k] * n[0] + data[i, k + 1] * n[1] + data[i, k + 2] * n[2]
+    y = data[i, k + 3] * n[0] + data[i, k + 4] * n[1] + data[i, k + 5] * n[2]
+    z = data[i, k + 6] * n[0] + data[i, k + 7] * n[1] + data[i, k + 8] * n[2]
+    s = math.sqrt(x * x + z * z)
+    if s < 1e-12:
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    au, bu, cu = 2.0 * math.pi * r * z, 0.0, -2.0 * math.pi * r * x
+    av, bv, cv = -math.pi * r * x * y / s, math.pi * r * s, -math.pi * r * y * z / s
+    # Back to the tree's space through R^T: column j of R is row j of R^T.
+    dpdu = (data[i, k] * au + data[i, k + 3] * bu + data[i, k + 6] * cu,
+            data[i, k + 1] * au + data[i, k + 4] * bu + data[i, k + 7] * cu,
+            data[i, k + 2] * au + data[i, k + 5] * bu + data[i, k + 8] * cu)
+    dpdv = (data[i, k] * av + data[i, k + 3] * bv + data[i, k + 6] * cv,
+            data[i, k + 1] * av + data[i, k + 4] * bv + data[i, k + 7] * cv,
+            data[i, k + 2] * av + data[i, k + 5] * bv + data[i, k + 8] * cv)
+    return dpdu, dpdv
+
+
 # --- sampling ---------------------------------------------------------------------------------
 
 # Below this squared sine of the cone's half-angle, 1 - cos is computed from its series:

@@ -6,13 +6,13 @@ import math
 from .. import target
 from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import INSTANCES
+from ..kernel_flags import INSTANCES, SURFACE_MAPS
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
-from ..materials import (NO_TANGENT, emits, emitted_at, eval_bsdf, has_density, is_zero, material_at, pdf_bsdf, reads_uv,
-                         sample_bsdf, scatters)
+from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
+                         pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
 from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
+from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from .shadow import transmittance
 from .traverse import intersect_scene, traversal_scratch
@@ -72,16 +72,20 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         mat = hit_material(S.prims_i, prim)
         # A scattering event in a medium has no surface: its point is found on the world's ray.
         volume = is_volume(S.prims_i, prim)
-        # (u, v) only where the material's texture reads it (an image): see surface().
-        want_uv = reads_uv(S.mat_i, mat)
+        # A normal or bump map bends the normal the material sees (never the geometric one).
+        maps = has_shading_map(S.mat_i, mat)
+        # (u, v) only where the material's texture reads it (an image) or a map does: see surface().
+        want_uv = reads_uv(S.mat_i, mat) or maps
         if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
             oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
             dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
             po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
             p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
             n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
+            n_tree = no
         else:
             p, n, u, v = interaction(S, prim, o, d, t, time, want_uv)
+            n_tree = n
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)
@@ -102,8 +106,24 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # An emitter that also scatters (a principled surface) goes on like any other.
             if not scatters(S.mat_i, mat):
                 break
-        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, key,
+        # The normal the material's lobe is built around: the surface's, or the one a map bends
+        # (materials/shading_normal.py). The surface's stays for the side of the hit and for
+        # where the next ray starts.
+        n_shade = n_front
+        # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
+        if SURFACE_MAPS and maps:
+            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+            n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
+        elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
+            # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
+            # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
+            tangent, _ = world_derivatives(S, prim, inst, n_tree)
+        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, key,
                                           bounce_dim(bounce, 0))
+        if SURFACE_MAPS and maps and not is_zero(new_d) and not same_side(new_d, n_front, n_shade):
+            # Reflected for the bent normal but through the surface (or the reverse): the path
+            # ends after this vertex's light sample, and no light leaks through the surface.
+            att = (0.0, 0.0, 0.0)
         # The shadow ray is the path's next segment: only where max_depth allows one more. It is
         # cast whatever the bounce drew, even when it drew nothing (a microfacet sample lost to
         # single scattering): the light estimate is an expectation over the light's samples
@@ -113,12 +133,12 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
             ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
-            if ok and light > 0.0:
-                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, tangent, front, wi)
+            if ok and light > 0.0 and not (SURFACE_MAPS and maps and not same_side(wi, n_front, n_shade)):
+                tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, wi)
             else:
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
-                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, wi)
+                density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, wi)
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -143,7 +163,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_front, tangent, front, unit(new_d))
+            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, unit(new_d))
             prev_p = p
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by

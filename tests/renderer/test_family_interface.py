@@ -41,6 +41,8 @@ CASES = {
     "rough dielectric": ({"type": "rough_dielectric", "ior": 1.5, "roughness": 0.5}, True),
     "smooth rough_dielectric": ({"type": "rough_dielectric", "ior": 1.33, "alpha": 0.0}, False),
     "thin dielectric": ({"type": "thin_dielectric", "ior": 1.5}, False),
+    "smooth plastic": ({"type": "plastic", "albedo": [0.2, 0.5, 0.8], "ior": 1.5}, True),
+    "rough plastic": ({"type": "plastic", "albedo": [0.8, 0.5, 0.2], "ior": 1.6, "roughness": 0.4, "nonlinear": True}, True),
     "principled paint": ({"type": "principled", "base_color": [0.8, 0.2, 0.2], "roughness": 0.4, "clearcoat": 1,
                           "clearcoat_roughness": 0.2}, True),
     "principled metal": ({"type": "principled", "base_color": [0.9, 0.6, 0.3], "metallic": 1, "roughness": 0.3}, True),

@@ -48,10 +48,23 @@ SWITCH_ON = {
     "sky": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
     "environment": ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n"),
     "meshes": ("", "  - {type: mesh, vertices: [[-0.5, 0, 0], [0.5, 0, 0], [0, 1, 0]], faces: [[0, 1, 2]], material: white}\n"),
+    "conductors": ("materials:\n  gold: {type: conductor, metal: gold, roughness: 0.3}\n",
+                   "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: gold}\n"),
+    "rough_dielectrics": ("materials:\n  frost: {type: rough_dielectric, ior: 1.5}\n",
+                          "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: frost}\n"),
+    "plastics": ("materials:\n  toy: {type: plastic, albedo: [0.1, 0.2, 0.8]}\n",
+                 "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: toy}\n"),
+    "principled": ("materials:\n  paint: {type: principled, base_color: [0.8, 0.1, 0.1], clearcoat: 1}\n",
+                   "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: paint}\n"),
+    # A map given as a colour is a solid texture: no texture kind's flag comes with it.
+    "surface_maps": ("materials:\n  dented: {type: lambertian, normal_map: [0.6, 0.5, 1]}\n",
+                     "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: dented}\n"),
+    "parameter_textures": ("materials:\n  worn: {type: conductor, roughness: {texture: [0.3, 0.4, 0.5], channel: g}}\n",
+                           "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: worn}\n"),
 }
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]
-ALSO_ON = {"lights": {"emitters": True}}
+ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}}
 
 
 def scene_text(flag=None):

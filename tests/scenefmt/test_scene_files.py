@@ -96,7 +96,7 @@ EXPECTED = {
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
     "material_spheres.yaml": (
-        {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=30), "image",
+        {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=26), "image",
     ),
 }
 

@@ -5,11 +5,12 @@
                                            [--spp 1024] [--mitsuba-spp 1024] [--block 16]
 
 Each case is the shipped Cornell box (scenes/cornell_box.yaml) with its lamp flush with the
-ceiling (mitsuba_scene.FLUSH_LAMP: our lamp is two-sided, Mitsuba's one-sided) and the tall block
-replaced by a sphere of the material under test, written as `rt render --set` arguments, so
-`rt render scenes/cornell_box.yaml --set ...` renders the same scene. The materials give the GGX
-width as `alpha:` and `shadowing: separable`, Mitsuba's form; mitsuba_scene.py converts the scene
-(two-sided BSDFs, depth convention, pixel filter).
+ceiling (mitsuba_scene.FLUSH_LAMP: our lamp is two-sided, Mitsuba's one-sided) and, but for
+`lambertian`, the tall block replaced by a sphere of the material under test, written as
+`rt render --set` arguments (printed per case), so `rt render scenes/cornell_box.yaml --set ...`
+renders the same scene. The materials give the GGX width as `alpha:` and `shadowing: separable`,
+Mitsuba's form; mitsuba_scene.py converts the scene (two-sided BSDFs, depth, pixel filter).
+Figures and what they showed: docs/materials.md, "Side by side with Mitsuba 3".
 
 Printed per case: for each renderer the samples per pixel, wall and CPU seconds, the image mean
 per channel with its standard error; then the z-score of the difference of the image means per

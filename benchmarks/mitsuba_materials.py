@@ -56,6 +56,8 @@ CASES: dict[str, tuple[str, tuple[str, ...]]] = {
                        probe("{type: conductor, metal: gold, alpha: 0.05, shadowing: separable}")),
     "conductor_0.3": ("rough gold, alpha 0.3",
                       probe("{type: conductor, metal: gold, alpha: 0.3, shadowing: separable}")),
+    "conductor_aniso": ("rough gold, anisotropic: alpha 0.3 along the sphere's u (around +y), 0.05 along v",
+                        probe("{type: conductor, metal: gold, alpha: 0.3, alpha_v: 0.05, shadowing: separable}")),
     "rough_dielectric": ("rough glass, alpha 0.2, ior 1.5",
                          probe("{type: rough_dielectric, ior: 1.5, alpha: 0.2, shadowing: separable}")),
     "thin_dielectric": ("a thin sheet of glass (ior 1.5) as a sphere: reflects, and lets light through unbent",

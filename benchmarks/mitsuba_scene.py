@@ -22,6 +22,8 @@ Where the two renderers differ by convention, and what this module does about it
   sees and 2 direct light; our `max_depth` counts the segments of a path the same way (1: the
   camera ray's own hit). Measured at depths 1 to 3 on the Cornell box (DEPTH_OFFSET 0; 1 gave
   Mitsuba one bounce more).
+- Tangents: a sphere's dp/du runs around +y in both (Mitsuba's sphere is turned to match), so
+  anisotropic widths (alpha along u, alpha_v along v) mean the same.
 - Pixels: both draw camera rays uniformly over the pixel (Mitsuba's box filter of radius 0.5).
 - GGX: Mitsuba's rough BSDFs take the width alpha and use the separable Smith term G1 G1 with
   visible-normal sampling; our materials say `alpha:` and `shadowing: separable` to match (our
@@ -160,7 +162,9 @@ def shape(model, transform, slot: str, light_faces: float) -> dict:
         m[:3, 3] = (hi + lo) / 2
         kind = "cube"
     elif model.type == "sphere":
-        m[:3, :3] = np.eye(3) * float(model.radius)
+        # Our sphere's u runs around +y, Mitsuba's around its local +z: turn that axis to +y, so that
+        # both lay an anisotropic lobe along the same dp/du.
+        m[:3, :3] = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]) * float(model.radius)
         m[:3, 3] = np.array(model.center, float)
         kind = "sphere"
     else:

@@ -123,7 +123,9 @@ class _Walk:
         # A material without a colour (a dielectric) attenuates by 1: it still needs a texture
         # row, since the kernels look one up for every scattering material.
         texture = self.textures.add(slot) if slot is not None else self.textures.white()
-        others = {key: self.textures.add(tex) for key, tex in node.textures.items() if key not in COLOUR_KEYS}
+        # Maps and textured parameters hold numbers (read as linear); an emission is a colour.
+        others = {key: self.textures.add(tex, data=key != "emission") for key, tex in node.textures.items()
+                  if key not in COLOUR_KEYS}
         return self._material_row(id(node), materials.material_rows(node.model, texture, others))
 
     def material_reads_uv(self, mat: int) -> bool:

@@ -150,9 +150,14 @@ class TextureTables:
         # textures (or spellings of its path) is decoded once and its texels shared.
         self._images: dict[tuple, tuple[int, int, int]] = {}
 
-    def add(self, node) -> int:
-        """The row of texture node `node` (a scenefmt.graph.TextureNode), added with its children."""
-        key = id(node)
+    def add(self, node, data: bool = False) -> int:
+        """The row of texture node `node` (a scenefmt.graph.TextureNode), added with its children.
+
+        `data`: the texture holds numbers, not colours (a normal or bump map, a roughness): an
+        image whose `colorspace` the file leaves unsaid is then read as linear, as glTF and
+        every renderer read such maps (an sRGB decode would bend every normal). The same node
+        used both ways gets a row for each."""
+        key = (id(node), data)
         if key in self._rows:
             return self._rows[key]
         m = node.model
@@ -164,12 +169,14 @@ class TextureTables:
         if m.type == "solid":
             floats = SOLID_F.row(color=m.color)
         elif m.type == "checker":
-            ints = TEXTURE_I.row(kind=TEX_CHECKER, even=self.add(node.inputs["even"]), odd=self.add(node.inputs["odd"]))
+            ints = TEXTURE_I.row(kind=TEX_CHECKER, even=self.add(node.inputs["even"], data),
+                                 odd=self.add(node.inputs["odd"], data))
             floats = CHECKER_F.row(inv_scale=1.0 / m.scale)
         elif m.type == "image":
             from scenefmt.diagnostics import format_path
 
-            first, w, h = self._image(node, m.colorspace, format_path)
+            colorspace = "linear" if data and "colorspace" not in m.model_fields_set else m.colorspace
+            first, w, h = self._image(node, colorspace, format_path)
             ints = TEXTURE_I.row(kind=TEX_IMAGE, even=-1, odd=-1)
             floats = IMAGE_F.row(texels=float(first), width=float(w), height=float(h))
         else:

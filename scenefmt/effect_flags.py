@@ -17,6 +17,10 @@ class EffectFlag:
     key: str  # KernelFeatures' field and scenefmt.effects' key; upper-cased, the kernels' constant
     name: str  # what users read
     path: str  # what the kernels compile in when it is on
+    # 0: in the core general kernel, which a render with nothing compiled starts with unless its
+    # scene needs more; 1: only in the full general kernel (the microfacet materials and maps), so
+    # that a scene without them never compiles their code, not even on a fresh install.
+    tier: int = 0
 
     @property
     def constant(self) -> str:
@@ -40,20 +44,23 @@ EFFECT_FLAGS = (
     EffectFlag("environment", "environment map",
                "an image background: its lookup, and with `integrator: mis` its sampling as a light"),
     EffectFlag("meshes", "triangle meshes", "the ray's sheared frame and the watertight triangle test"),
-    EffectFlag("conductors", "conductors", "GGX microfacet reflection with a measured metal's Fresnel"),
-    EffectFlag("rough_dielectrics", "rough and thin glass", "refraction through GGX microfacets, and thin sheets"),
-    EffectFlag("plastics", "plastics", "a dielectric coat over a diffuse base"),
-    EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes"),
-    EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map"),
-    EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture"),
+    EffectFlag("conductors", "conductors", "GGX microfacet reflection with a measured metal's Fresnel", 1),
+    EffectFlag("rough_dielectrics", "rough and thin glass", "refraction through GGX microfacets, and thin sheets", 1),
+    EffectFlag("plastics", "plastics", "a dielectric coat over a diffuse base", 1),
+    EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes", 1),
+    EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map", 1),
+    EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture", 1),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
+CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)
 
 
 def flags_tag(on) -> str:
-    """A short stable name of a set of flags that are on (keys): 'all', 'none', or those that are
-    on, in the table's order, joined by '+'. It names a specialised kernel and its cache folder."""
+    """A short stable name of a set of flags that are on (keys): 'all', 'core' (every flag of tier
+    0), 'none', or those that are on, in the table's order, joined by '+'. It names a specialised kernel and its cache folder."""
     on = set(on)
     if on >= set(EFFECT_KEYS):
         return "all"
+    if on == set(CORE_KEYS):
+        return "core"
     return "+".join(key for key in EFFECT_KEYS if key in on) or "none"

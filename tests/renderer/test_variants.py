@@ -203,6 +203,23 @@ def test_auto_starts_with_the_general_kernel_until_the_specialised_one_is_compil
     assert variants.first_kernel(needed, "specialised") == needed
 
 
+def test_auto_starts_with_the_smallest_general_kernel_that_covers_the_scene(monkeypatch):
+    """On a fresh install a scene without the microfacet materials and maps compiles the core
+    general kernel, not the full one; a scene with them the full one; a compiled full kernel
+    serves a scene the core one would, rather than compiling the core one too."""
+    import renderer.variants as variants
+
+    books = replace(NONE, sky=True, media=True)
+    gold = replace(NONE, sky=True, conductors=True)
+    assert variants.CORE.covers(books) and not variants.CORE.covers(gold) and variants.CORE.tag == "core"
+    monkeypatch.setattr(variants, "is_compiled", lambda features: False)
+    assert variants.first_kernel(books) == variants.CORE
+    assert variants.first_kernel(gold) == GENERAL
+    assert variants.first_kernel(books, "general") == GENERAL
+    monkeypatch.setattr(variants, "is_compiled", lambda features: features.is_general)
+    assert variants.first_kernel(books) == GENERAL
+
+
 def test_a_long_render_switches_to_the_specialised_kernel_and_keeps_the_image(monkeypatch):
     """The switch is mid-render, after the first pass: the image is the general kernel's, bit for bit."""
     import renderer.session as session_module

@@ -50,7 +50,8 @@ from .background import BACKGROUND_IMAGE, BG_KIND, background
 from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS
-from .materials import MAT_READS_UV, color_at, emitted_at, emitting_rows
+from .materials import MAT_READS_UV, emission_source, emitting_rows
+from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
@@ -343,12 +344,15 @@ def area_ratio(inst_f, inst, n_world):
 @target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there), as
-    its material answers a ray that hits it there (`emitted_at`: two-sided, so the side is not asked)."""
+    its material's `emission_source` says (two-sided, so the side is not asked)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
     # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.
     _, _, u, v = surface(kind, S, prim, madd(x_tree, n_tree, 1.0), neg(n_tree), 1.0, time, S.mat_i[mat, MAT_READS_UV] != 0)
-    return emitted_at(S, mat, color_at(S, mat, u, v, x_world), u, v, x_world, True)
+    row, k = emission_source(S.mat_i, S.mat_f, mat)
+    e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, row, u, v, x_world)
+    # k is 1 for the books' light: x * 1.0 is x, bit for bit.
+    return (e[0] * k, e[1] * k, e[2] * k)
 
 
 @target.device

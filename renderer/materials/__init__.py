@@ -33,7 +33,7 @@ The direction of each material is a function of its random inputs (`lambertian_d
 
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
                     metal_direction, random_unit_vector, reflect)
-from .dispatch import (MICROFACETS, NO_PARAMETERS, is_anisotropic, NO_TANGENT, color_at, emits, emitted, emitted_at, emitting_rows, eval_bsdf, has_density, is_zero,
+from .dispatch import (MICROFACETS, emission_source, NO_PARAMETERS, is_anisotropic, NO_TANGENT, color_at, emits, emitted, emitted_at, emitting_rows, eval_bsdf, has_density, is_zero,
                        material_at, pdf_bsdf, reads_uv, sample_bsdf, scatters)
 from .fresnel import fresnel_dielectric
 from .shading_normal import has_shading_map, same_side, shading_frame
@@ -46,5 +46,5 @@ __all__ = [
     "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
     "emitted_at", "emitting_rows", "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
     "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf", "scatters",
-    "has_shading_map", "same_side", "shading_frame", "MICROFACETS", "is_anisotropic",
+    "has_shading_map", "same_side", "shading_frame", "MICROFACETS", "is_anisotropic", "emission_source",
 ]

@@ -60,9 +60,9 @@ def test_a_black_or_weak_emission_is_no_light():
 
 
 def test_the_lights_name_no_material_kind():
-    """renderer/lights.py asks `emits` and `emitted`, never which kind of material emits."""
+    """renderer/lights.py asks `emits` (emitting_rows) and `emission_source`, never which kind of material emits."""
     used = names_in((ROOT / "renderer" / "lights.py").read_text())
-    assert {"emitting_rows", "emitted_at"} <= used
+    assert {"emitting_rows", "emission_source"} <= used
     material_kinds = kind_names(MATERIAL_I) | {"CODES", "MAT_KIND"}
     assert "DIFFUSE_LIGHT" in material_kinds
     assert used & material_kinds == set()

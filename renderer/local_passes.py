@@ -14,7 +14,7 @@ from .executor import KernelTime, Plan, Step
 from .film import Film
 from .flat import FlatScene
 from .jit_cache import general_folder as kernel_cache_folder
-from .variants import KernelFeatures, is_compiled, kernel_set, mark_compiled
+from .variants import KernelFeatures, compile_wait, is_compiled, kernel_set, mark_compiled
 
 # The first band of a render, before its speed is known, in rows per render thread: small, so
 # that a stop right after the start waits little, and enough to give every thread rows.
@@ -120,7 +120,7 @@ class LocalPasses:
         before anything is timed."""
         compiling = not is_compiled(chosen)
         if notify is not None and compiling:
-            notify(f"compiling the renderer's {chosen.tag!r} kernel: 8 to 30 seconds on 2 cores, once; cached in "
+            notify(f"compiling the renderer's {chosen.tag!r} kernel: {compile_wait(chosen)}, once; cached in "
                    f"{kernel_cache_folder()}")
         t0 = time.perf_counter()
         chosen_pass = kernel_set(chosen).render_pass

@@ -223,7 +223,7 @@ class ClusterRounds:
 
     def start(self, film, features, notify=None):
         from renderer.executor import KernelTime
-        from renderer.variants import is_compiled
+        from renderer.variants import compile_wait, is_compiled
 
         client = self.client
         if client.status != "running":  # it lost its scheduler during an earlier scene of a batch
@@ -232,7 +232,7 @@ class ClusterRounds:
         spent = KernelTime()
         if self.warm_kernel:  # compiled once, here, rather than by every worker process at once
             if notify is not None and not is_compiled(features, "tile"):
-                notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: 8 to 30 seconds on 2 cores, once")
+                notify(f"compiling the renderer's {features.tag!r} tile kernel for the workers: {compile_wait(features)}, once")
             started = time.perf_counter()
             chunks.warm_tile_kernel(self.flat, features)
             spent = KernelTime(time.perf_counter() - started)

@@ -244,7 +244,7 @@ class Previewer:
         from renderer.flat import Frame
         from renderer.render import render_flat
         from renderer.session import flatten_loaded
-        from renderer.variants import features_of, first_kernel, is_compiled
+        from renderer.variants import compile_wait, features_of, first_kernel, is_compiled
         from scenefmt.diagnostics import SceneError
         from scenefmt.files import recording_reads
         from scenefmt.validation import load
@@ -279,7 +279,7 @@ class Previewer:
         needed = features_of(graph)
         kernel = first_kernel(needed)  # never switch kernels mid-render: a save would wait for a compile
         if not is_compiled(kernel):
-            text = "compiling the renderer's kernel: 8 to 30 seconds on 2 cores, once per installation"
+            text = f"compiling the renderer's kernel: {compile_wait(kernel)}, once per installation"
             self.say(text)
             self.board.post("status", {"generation": generation, "text": text})
         frame = Frame.of(graph)

@@ -220,6 +220,13 @@ def test_auto_starts_with_the_smallest_general_kernel_that_covers_the_scene(monk
     assert variants.first_kernel(books) == GENERAL
 
 
+def test_the_compile_message_says_the_full_kernel_takes_longer():
+    import renderer.variants as variants
+
+    assert variants.compile_wait(variants.CORE) == "8 to 40 seconds on 2 cores"
+    assert variants.compile_wait(GENERAL) == variants.compile_wait(replace(NONE, plastics=True)) == "about a minute on 2 cores"
+
+
 def test_a_long_render_switches_to_the_specialised_kernel_and_keeps_the_image(monkeypatch):
     """The switch is mid-render, after the first pass: the image is the general kernel's, bit for bit."""
     import renderer.session as session_module

@@ -83,6 +83,15 @@ class Connection:
     cluster: Any = None
     owned: bool = True
 
+    def __post_init__(self):
+        # While this process owns a client, distributed's own log records are held back: when a
+        # scheduler dies, its background senders and the reconnecting client log tracebacks (at
+        # any moment, from their own threads), after or even before the render says in one line
+        # what happened. A client the caller passed in keeps the caller's logging.
+        self._held_logging = logging.root.manager.disable
+        if self.owned:
+            logging.disable(logging.CRITICAL)
+
     @property
     def local(self) -> bool:
         """Whether the workers are processes this connection started on this machine ("local"):
@@ -99,24 +108,17 @@ class Connection:
         if not self.owned:
             return
         # A client that lost its scheduler is still trying to reconnect: closing it cancels that,
-        # and distributed logs the cancellation with a traceback, after the render has said
-        # in one line what happened. Logging is held back for that moment only.
-        lost = self.client.status != "running"
-        held = logging.root.manager.disable
-        if lost:
-            logging.disable(logging.CRITICAL)
+        # and distributed logs the cancellation with a traceback (held back: see __post_init__).
         try:
             self.client.close(timeout=10)
         except Exception:  # noqa: BLE001 - closing after a failure: nothing more to say
             pass
-        finally:
-            if lost:
-                logging.disable(held)
         if self.cluster is not None:
             try:
                 self.cluster.close(timeout=10)
             except Exception:  # noqa: BLE001
                 pass
+        logging.disable(self._held_logging)
 
 
 def worker_threads(workers: dict) -> int:

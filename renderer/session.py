@@ -21,6 +21,7 @@ from typing import Callable, Optional
 
 from .executor import ExecutorFailed, KernelTime, Plan
 from .film import Film, relative_noise
+from .forecast import ForecastTracker
 from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
 
 # Below this many samples per pixel the noise estimate is not trusted to stop a render on.
@@ -43,6 +44,9 @@ class RenderStats:
     compile_seconds: float = 0.0  # the part of kernel_seconds spent compiling: never counted in `seconds`
     first_pass_seconds: float = 0.0  # rendering seconds until the first step of samples was in the film
     features: Optional[KernelFeatures] = None  # the kernel's feature set
+    # Where a render with a noise target or a time budget is expected to stop (renderer/forecast.py):
+    # None until its pilot is done, then refreshed after each step.
+    forecast: Optional[object] = None
 
     @property
     def rays_per_second(self) -> float:
@@ -100,17 +104,22 @@ def choose_kernel(needed: KernelFeatures, kernel: str = "auto",
 
 
 def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
-                    noise_target: Optional[float], last_noise: float) -> tuple[bool, float]:
-    """After samples were added to `film`: refresh the noise estimate where it is needed, show
-    progress, and say whether the noise target is reached; also the time of the last estimate.
+                    noise_target: Optional[float], last_noise: float, tracker: Optional[ForecastTracker] = None,
+                    step=None) -> tuple[bool, float]:
+    """After samples were added to `film` (by `step`): refresh the noise estimate where it is
+    needed, the forecast (`tracker`) where there is one, show progress, and say whether the noise
+    target is reached; also the time of the last estimate.
 
     The estimate costs a pass over the film: it is made for a noise target, else for the
-    progress display at most once a second. It needs a few samples before it is trusted to stop on.
+    progress display or the forecast at most once a second. It needs a few samples before it is
+    trusted to stop on.
     """
     now = time.perf_counter()
-    if noise_target is not None or (progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS):
+    if noise_target is not None or ((progress is not None or tracker is not None) and now - last_noise >= NOISE_DISPLAY_SECONDS):
         stats.noise = relative_noise(film)
         last_noise = now
+    if tracker is not None and step is not None:
+        stats.forecast = tracker.update(film, stats.seconds, stats.noise, step.samples, step.seconds)
     if progress is not None:
         progress(stats)
     reached = noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target
@@ -158,8 +167,9 @@ def render_progressively(
 
     The kernel: `needed` is the paths the scene reaches, `kernel` and `features` choose as in
     `choose_kernel`. With "auto", an executor that can switch kernels switches to the specialised
-    one when the rest of the render, as forecast from the speed and noise measured so far
-    (`variants.seconds_left`), is long enough to repay the compile (`variants.worth_specialising`).
+    one when the rest of the render, as forecast from the speed measured so far and the samples
+    left (`variants.seconds_left`), or with a noise target from the pilot's forecast
+    (`forecast.ForecastTracker`, `stats.forecast`), is long enough to repay the compile (`variants.worth_specialising`).
     `notify` receives a line before a compile or a switch. Time spent getting kernels ready is never
     counted as rendering time (`stats.seconds`, the time budget).
     """
@@ -173,6 +183,10 @@ def render_progressively(
         time_left = (lambda: time_budget - clock()) if time_budget is not None else None
         last_noise = clock.start
         steps = 0
+        tracker = None
+        if noise_target is not None or time_budget is not None:
+            tracker = ForecastTracker(cap=target, start_samples=start_samples, noise_target=noise_target,
+                                      time_budget=time_budget)
         try:
             while film.samples < target:
                 if should_stop is not None and should_stop():
@@ -197,13 +211,19 @@ def render_progressively(
                 stats.seconds = clock()
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
-                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, tracker, step)
                 if reached:
                     stats.stop_reason = "noise"
                     break
                 if may_switch:
-                    left = seconds_left(step.seconds / step.samples, film.samples, target, noise=stats.noise,
-                                        noise_target=noise_target, time_left=time_left() if time_left is not None else None)
+                    if noise_target is not None:
+                        # The samples a noise target needs are known only once the pilot has
+                        # measured the noise (an estimate at 2 samples per pixel can be off
+                        # several times): until then, no switch.
+                        left = stats.forecast.left(stats.seconds) if stats.forecast is not None else None
+                    else:
+                        left = seconds_left(step.seconds / step.samples, film.samples, target,
+                                            time_left=time_left() if time_left is not None else None)
                     if left is not None and worth_specialising(left):
                         may_switch = False
                         if notify is not None:

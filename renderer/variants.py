@@ -139,8 +139,9 @@ def seconds_left(sample_seconds: float, samples: int, cap: int, *, noise: Option
     if noise_target is not None:
         if noise is None or samples < 2 or not 0 < noise < float("inf"):
             return None
-        needed = samples * (noise / noise_target) ** 2
-        left = min(left, sample_seconds * max(0.0, needed - samples))
+        from .forecast import samples_for_noise
+
+        left = min(left, sample_seconds * max(0.0, samples_for_noise(samples, noise, noise_target) - samples))
     if time_left is not None:
         left = min(left, max(0.0, time_left))
     return left

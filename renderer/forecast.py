@@ -1,0 +1,274 @@
+"""How long a render needs to reach a noise target, and the noise a budget of time or samples will
+reach, forecast from a short pilot (numpy only; no kernel, no pydantic).
+
+A Monte Carlo pixel's standard error falls as one over the square root of its samples, so the
+image's relative RMS noise after n samples per pixel is about c / sqrt(n). A pilot of n0 samples
+that measured the noise e0 therefore forecasts n0 (e0 / target)^2 samples for a target, at the
+time per sample it measured. The pilot's e0 is itself an estimate, with an uncertainty of its own:
+the interval [low, high] that the noise estimate gives (`noise_interval`) becomes a range of
+samples, n0 (low / target)^2 to n0 (high / target)^2, and the spread of the pilot's step times a
+range of seconds. The forecast is made again after every step of the render (`ForecastTracker`),
+so it sharpens as the samples grow; docs/forecast.md says how far it was from the real time.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+# A forecast waits for this many samples per pixel of the render (two rounds of the eight
+# interleaved batches: the batch estimate needs a full round, and one round is noisy), or for
+# PILOT_SECONDS of rendering with at least PILOT_LEAST_SAMPLES, whichever comes first.
+PILOT_SAMPLES = 16
+PILOT_LEAST_SAMPLES = 4
+PILOT_SECONDS = 3.0
+# The confidence of the ranges a forecast gives.
+CONFIDENCE = 0.95
+# The noise interval is refreshed (a pass over the film) at most this often during a render.
+INTERVAL_SECONDS = 1.0
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What a pilot measured: at `samples` per pixel the image's relative RMS noise was `noise`
+    (between `low` and `high` at CONFIDENCE), and one sample per pixel over the whole image took
+    `sample_seconds` (`timing_spread`: the relative spread of that time between steps)."""
+
+    samples: int
+    noise: float
+    low: float
+    high: float
+    sample_seconds: float
+    timing_spread: float = 0.0
+    warning: Optional[str] = None  # the noise estimate's own word that it cannot be trusted
+
+    @property
+    def usable(self) -> bool:
+        return (self.samples > 0 and self.sample_seconds > 0 and math.isfinite(self.sample_seconds)
+                and 0 < self.noise < math.inf and 0 < self.low <= self.noise <= self.high < math.inf)
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """Where a render is expected to stop, with ranges at CONFIDENCE: the samples per pixel and
+    rendering seconds in all (from the first sample, a resumed film's earlier samples counted at
+    today's speed), and the relative RMS noise of the image then. `stop` says what ends it:
+    "noise" (the target), "time" (the budget) or "samples" (the cap, or the samples asked for)."""
+
+    stop: str
+    samples: float
+    samples_low: float
+    samples_high: float
+    seconds: float
+    seconds_low: float
+    seconds_high: float
+    noise: float
+    noise_low: float
+    noise_high: float
+    warning: Optional[str] = None
+
+    def left(self, elapsed: float, which: str = "seconds") -> float:
+        """Seconds still to render after `elapsed` (never below 0), at the forecast's middle or at
+        `which` end ("seconds_low", "seconds_high")."""
+        return max(0.0, getattr(self, which) - elapsed)
+
+
+def samples_for_noise(samples: float, noise: float, target: float) -> float:
+    """Samples per pixel at which a noise of `noise` after `samples` falls to `target`, as noise
+    falls with one over the square root of the samples (fewer than `samples` if it is below)."""
+    if not (target > 0 and 0 <= noise < math.inf):
+        return math.inf
+    return samples * (noise / target) ** 2
+
+
+def noise_after(samples: float, noise: float, more: float) -> float:
+    """The noise after `more` samples per pixel in all, of a render whose noise was `noise` after `samples`."""
+    if more <= 0:
+        return math.inf
+    return noise * math.sqrt(samples / more)
+
+
+def forecast(reading: Reading, *, cap: float, noise_target: Optional[float] = None,
+             time_budget: Optional[float] = None, least: float = 1.0) -> Forecast:
+    """Where a render stops: the first of the sample cap, the noise target and the time budget
+    (seconds of rendering in all), from what `reading` measured, and never before `least`
+    samples per pixel (a render does not stop on its noise before a few samples). The middle of
+    each range uses the middle of the pilot's noise and speed, its ends their ends; a time
+    budget bounds every end of the range of seconds, a cap every end of the range of samples."""
+    per = reading.sample_seconds
+    slow, fast = per * (1 + reading.timing_spread), per * max(0.0, 1 - reading.timing_spread)
+    n0 = reading.samples
+
+    def stop_at(noise: float, speed: float) -> tuple[float, float, float, str]:
+        """(samples, seconds, noise at the end, what stops it) for a noise of `noise` at n0 and
+        `speed` seconds per sample."""
+        ends = [(float(cap), "samples")]
+        if noise_target is not None:
+            ends.append((max(least, samples_for_noise(n0, noise, noise_target)), "noise"))
+        if time_budget is not None and speed > 0:
+            ends.append((max(least, time_budget / speed), "time"))
+        samples, stop = min(ends, key=lambda end: end[0])
+        seconds = samples * speed
+        if time_budget is not None:
+            seconds = min(seconds, time_budget)
+        end_noise = float(noise_target) if stop == "noise" else noise_after(n0, noise, samples)
+        return samples, seconds, end_noise, stop
+
+    samples, seconds, noise, stop = stop_at(reading.noise, per)
+    # The ranges: every pairing of the ends of the noise's interval and of the speed's.
+    corners = [stop_at(x, speed) for x in (reading.low, reading.high) for speed in (fast, slow)]
+    return Forecast(stop, samples, min(c[0] for c in corners), max(c[0] for c in corners),
+                    seconds, min(c[1] for c in corners), max(c[1] for c in corners),
+                    noise, min(c[2] for c in corners), max(c[2] for c in corners), reading.warning)
+
+
+def chi2_quantile(p: float, dof: float) -> float:
+    """The p-quantile of the chi-square distribution with `dof` degrees of freedom (Wilson and
+    Hilferty's cube-root normal approximation: within 1% for 5 or more degrees of freedom, which
+    the pooled estimates here always have; numpy has no chi-square quantile of its own)."""
+    z = _normal_quantile(p)
+    k = max(dof, 1e-9)
+    return k * max(0.0, 1 - 2 / (9 * k) + z * math.sqrt(2 / (9 * k))) ** 3
+
+
+def _normal_quantile(p: float) -> float:
+    """The standard normal p-quantile (Acklam's rational approximation, relative error < 1.2e-9)."""
+    a = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02, 1.383577518672690e02,
+         -3.066479806614716e01, 2.506628277459239e00)
+    b = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02, 6.680131188771972e01, -1.328068155288572e01)
+    c = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00, -2.549732539343734e00,
+         4.374664141464968e00, 2.938163982698783e00)
+    d = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
+    if p < 0.02425:
+        q = math.sqrt(-2 * math.log(p))
+        return (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1)
+    if p > 1 - 0.02425:
+        return -_normal_quantile(1 - p)
+    q = p - 0.5
+    r = q * q
+    return (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q / (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1)
+
+
+def pooled_interval(variances: np.ndarray, dof: float, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """The interval, as factors on the square root of its sum, of a sum of independent variance
+    estimates (`variances`, one per pixel, each with `dof` degrees of freedom): Satterthwaite's
+    effective degrees of freedom, (sum v)^2 / sum(v^2 / dof), and a chi-square interval on them.
+    A few pixels that hold most of the sum leave few effective degrees of freedom and so a wide
+    interval: the pilot knows little about a noise that a handful of pixels make."""
+    v = np.asarray(variances, np.float64).ravel()
+    v = v[np.isfinite(v)]
+    total = float(v.sum())
+    if total <= 0 or dof <= 0:
+        return 1.0, 1.0
+    effective = total * total / float(np.dot(v, v) / dof)
+    alpha = 1 - confidence
+    low = effective / chi2_quantile(1 - alpha / 2, effective)
+    high = effective / max(chi2_quantile(alpha / 2, effective), 1e-12)
+    return math.sqrt(low), math.sqrt(high)
+
+
+def noise_interval(film, noise: Optional[float] = None) -> tuple[float, float, float, Optional[str]]:
+    """(noise, low, high, warning) of a film: its relative RMS noise and the interval for it at
+    CONFIDENCE. The film's own estimate (`film.estimate_noise`) is used where it states an
+    interval; otherwise the interval is pooled from each pixel's variance estimate
+    (`pooled_interval`): from the spread of its batch means when the film keeps them
+    (BATCHES - 1 degrees of freedom each, honest under stratified samplers), else from its
+    samples' sums of squares (samples - 1 each)."""
+    from .film import estimate_noise
+
+    estimate = estimate_noise(film)
+    low, high = getattr(estimate, "low", None), getattr(estimate, "high", None)
+    value = estimate.relative_rms if noise is None else noise
+    warning = getattr(estimate, "warning", None)
+    if low is not None and high is not None and math.isfinite(low) and math.isfinite(high) and low > 0:
+        return value, min(low, value), max(high, value), warning
+    if not 0 < value < math.inf:
+        return value, value, value, warning
+    # Each pixel's squared standard error (channels averaged) from its samples' sums of squares.
+    lo, hi = pooled_interval(np.square(estimate.error), film.samples - 1)
+    return value, value * lo, value * hi, warning
+
+
+def timing_spread(step_seconds: list[float]) -> float:
+    """The relative spread of the time per sample between a render's steps: their standard
+    deviation over their mean, over the square root of their number (the error of the mean
+    speed), doubled for the confidence, and at least 5% (other processes share the machine)."""
+    times = np.asarray(step_seconds, np.float64)
+    times = times[np.isfinite(times) & (times > 0)]
+    if len(times) < 2:
+        return 0.25
+    spread = float(times.std(ddof=1) / times.mean()) / math.sqrt(len(times))
+    return max(0.05, min(0.5, 2 * spread))
+
+
+class ForecastTracker:
+    """The forecast of a render, refreshed after each of its steps (renderer/session.py).
+
+    It stays None until the pilot is done (PILOT_SAMPLES of this render, or PILOT_SECONDS with
+    PILOT_LEAST_SAMPLES); then each update forecasts from everything measured so far: the speed
+    over this render's samples (a resumed film's earlier samples were timed by another run), the
+    noise over the whole film."""
+
+    def __init__(self, *, cap: int, start_samples: int, noise_target: Optional[float] = None,
+                 time_budget: Optional[float] = None, clock=time.perf_counter):
+        self.cap = cap
+        self.start = start_samples
+        self.noise_target = noise_target
+        self.time_budget = time_budget
+        self.clock = clock
+        self.step_times: list[float] = []  # seconds per sample of each step
+        self.interval: Optional[tuple[float, float]] = None  # (low, high) as factors on the noise
+        self.warning: Optional[str] = None
+        self.interval_at = -math.inf
+        self.forecast: Optional[Forecast] = None
+
+    def pilot_done(self, samples: int, seconds: float) -> bool:
+        done = samples - self.start
+        return done >= PILOT_SAMPLES or (seconds >= PILOT_SECONDS and done >= PILOT_LEAST_SAMPLES)
+
+    def update(self, film, seconds: float, noise: float, step_samples: int, step_seconds: float) -> Optional[Forecast]:
+        """After a step of `step_samples` that took `step_seconds`: the render's forecast, or None
+        before the pilot is done (or while the noise is not estimated)."""
+        if step_samples > 0:
+            self.step_times.append(step_seconds / step_samples)
+        samples = film.samples
+        if not self.pilot_done(samples, seconds) or not 0 < noise < math.inf:
+            return self.forecast
+        now = self.clock()
+        if self.interval is None or now - self.interval_at >= INTERVAL_SECONDS:
+            value, low, high, self.warning = noise_interval(film, noise)
+            self.interval = (low / value, high / value) if value > 0 else (1.0, 1.0)
+            self.interval_at = now
+        lo, hi = self.interval
+        rendered = samples - self.start
+        reading = Reading(samples, noise, noise * lo, noise * hi, seconds / max(1, rendered),
+                          timing_spread(self.step_times), self.warning)
+        if reading.usable:
+            # The forecast counts seconds from the film's first sample; this render's clock from its own.
+            earlier = self.start * reading.sample_seconds
+            budget = self.time_budget + earlier if self.time_budget is not None else None
+            whole = forecast(reading, cap=self.cap, noise_target=self.noise_target, time_budget=budget)
+            self.forecast = shifted(whole, -earlier)
+        return self.forecast
+
+
+def shifted(f: Forecast, seconds: float) -> Forecast:
+    """The forecast with `seconds` added to each of its times (clamped at 0)."""
+    import dataclasses
+
+    return dataclasses.replace(f, seconds=max(0.0, f.seconds + seconds), seconds_low=max(0.0, f.seconds_low + seconds),
+                               seconds_high=max(0.0, f.seconds_high + seconds))
+
+
+def scaled_to(reading: Reading, pixels_ratio: float) -> Reading:
+    """A pilot rendered at a smaller size, as a forecast of the full image: the time per sample
+    grows with the pixel count (`pixels_ratio`, the full image's pixels over the pilot's), and the
+    relative noise per sample is taken as the same (each pixel's samples see the same light
+    paths; docs/forecast.md measures how close that holds)."""
+    import dataclasses
+
+    return dataclasses.replace(reading, sample_seconds=reading.sample_seconds * pixels_ratio)

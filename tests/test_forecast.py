@@ -1,0 +1,149 @@
+"""The forecast's arithmetic (renderer/forecast.py) on synthetic noise curves: fast, no kernel."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from renderer.film import Film
+from renderer.forecast import (Forecast, ForecastTracker, Reading, chi2_quantile, forecast, noise_after, noise_interval,
+                               pooled_interval, samples_for_noise, scaled_to, timing_spread)
+
+
+def reading(noise=0.1, low=0.09, high=0.11, samples=16, per=0.5, spread=0.0):
+    return Reading(samples, noise, low, high, per, spread)
+
+
+def test_samples_and_noise_follow_one_over_the_square_root():
+    assert samples_for_noise(16, 0.1, 0.05) == pytest.approx(64)
+    assert samples_for_noise(16, 0.04, 0.05) == pytest.approx(10.24)  # reached before the pilot's end
+    assert samples_for_noise(16, math.inf, 0.05) == math.inf
+    assert noise_after(16, 0.1, 64) == pytest.approx(0.05)
+    assert noise_after(16, 0.1, 0) == math.inf
+
+
+def test_a_noise_target_forecasts_samples_and_seconds_with_the_pilots_range():
+    f = forecast(reading(), cap=1_000_000, noise_target=0.01)
+    assert f.stop == "noise"
+    assert f.samples == pytest.approx(1600) and f.seconds == pytest.approx(800)
+    assert f.samples_low == pytest.approx(16 * 81) and f.samples_high == pytest.approx(16 * 121)
+    assert f.seconds_low == pytest.approx(16 * 81 * 0.5) and f.seconds_high == pytest.approx(16 * 121 * 0.5)
+    assert f.noise == f.noise_low == f.noise_high == 0.01
+    assert f.left(300) == pytest.approx(500) and f.left(900) == 0.0
+
+
+def test_the_timing_spread_widens_the_seconds_not_the_samples():
+    f = forecast(reading(spread=0.1), cap=1_000_000, noise_target=0.01)
+    assert f.samples == pytest.approx(1600) and f.samples_low == pytest.approx(16 * 81)
+    assert f.seconds_low == pytest.approx(16 * 81 * 0.45) and f.seconds_high == pytest.approx(16 * 121 * 0.55)
+
+
+def test_the_cap_comes_first_and_the_noise_then_is_above_the_target():
+    f = forecast(reading(), cap=400, noise_target=0.01)
+    assert f.stop == "samples" and f.samples == f.samples_high == 400
+    assert f.seconds == pytest.approx(200)
+    assert f.noise == pytest.approx(0.1 * math.sqrt(16 / 400))
+    assert f.noise_low >= 0.01 and f.noise_high == pytest.approx(0.11 * math.sqrt(16 / 400))
+
+
+def test_a_time_budget_forecasts_the_noise_at_its_end():
+    f = forecast(reading(spread=0.2), cap=1_000_000, time_budget=100.0)
+    assert f.stop == "time"
+    assert f.samples == pytest.approx(200) and f.seconds == pytest.approx(100)
+    assert f.seconds_high == pytest.approx(100)  # a budget bounds the time
+    assert f.samples_low == pytest.approx(100 / 0.6) and f.samples_high == pytest.approx(100 / 0.4)
+    assert f.noise == pytest.approx(0.1 * math.sqrt(16 / 200))
+    assert f.noise_low == pytest.approx(0.09 * math.sqrt(16 / 250)) and f.noise_high == pytest.approx(0.11 * math.sqrt(16 / (100 / 0.6)))
+
+
+def test_a_target_reached_before_the_budget_stops_the_render_on_noise():
+    f = forecast(reading(), cap=1_000_000, noise_target=0.05, time_budget=1000.0)
+    assert f.stop == "noise" and f.samples == pytest.approx(64) and f.seconds == pytest.approx(32)
+
+
+def test_a_target_the_pilot_passed_forecasts_fewer_samples_but_not_below_the_least():
+    f = forecast(reading(noise=0.04, low=0.035, high=0.045), cap=1_000_000, noise_target=0.05, least=8)
+    assert f.stop == "noise" and f.samples == pytest.approx(10.24) and f.samples_low == 8
+
+
+def test_the_chi_square_quantile_is_close_to_the_tables():
+    # Tables: chi2(0.025, 10) = 3.247, chi2(0.975, 10) = 20.483, chi2(0.975, 100) = 129.56
+    assert chi2_quantile(0.025, 10) == pytest.approx(3.247, rel=0.01)
+    assert chi2_quantile(0.975, 10) == pytest.approx(20.483, rel=0.01)
+    assert chi2_quantile(0.975, 100) == pytest.approx(129.56, rel=0.002)
+
+
+def test_the_pooled_interval_is_narrow_over_many_even_pixels_and_wide_over_a_few_bright_ones():
+    even_low, even_high = pooled_interval(np.ones(10_000), dof=15)
+    assert 0.99 < even_low < 1 < even_high < 1.01
+    few = np.r_[np.full(3, 1e4), np.ones(10_000)]  # three pixels hold three quarters of the variance
+    few_low, few_high = pooled_interval(few, dof=15)
+    assert few_low < 0.9 and few_high > 1.15
+
+
+def noisy_film(rng, samples, sigma, width=40, height=30, bright=None):
+    """A film of Gaussian samples around 10 with standard deviation `sigma` (per pixel if an array):
+    far enough from 0 that the squared means barely overstate the signal. Grey: the three channels
+    of a sample are the same, as they nearly are in a render (one path carries all three)."""
+    sigma = np.broadcast_to(np.asarray(sigma, float), (height, width))[:, :, None]
+    x = 10.0 + sigma * rng.standard_normal((samples, height, width, 1)).repeat(3, axis=3)
+    return Film(x.sum(axis=0), np.square(x).sum(axis=0), samples)
+
+
+def test_the_noise_interval_covers_the_true_noise_at_its_rate():
+    """Gaussian films whose true relative RMS error is known: the interval's coverage is near 95%."""
+    rng = np.random.default_rng(7)
+    sigma = rng.uniform(0.5, 2.0, (30, 40))
+    true = math.sqrt(np.mean(np.square(sigma)) / 16) / 10  # each pixel's mean is 10, its error sigma / 4
+    covered = 0
+    for _ in range(200):
+        noise, low, high, _ = noise_interval(noisy_film(rng, 16, sigma))
+        covered += low <= true <= high
+    assert 180 <= covered <= 199  # 95% of 200 is 190, binomial sd 3
+
+
+def test_a_tracker_waits_for_the_pilot_then_forecasts_from_the_film():
+    rng = np.random.default_rng(3)
+    tracker = ForecastTracker(cap=1_000_000, start_samples=0, noise_target=0.01, clock=lambda: 0.0)
+    film = noisy_film(rng, 8, 5.0)
+    assert tracker.update(film, 0.8, 0.5 / math.sqrt(8), 8, 0.8) is None  # 8 samples in 0.8 s: no pilot yet
+    film = noisy_film(rng, 16, 5.0)
+    f = tracker.update(film, 1.6, 0.125, 8, 0.8)
+    assert isinstance(f, Forecast) and f.stop == "noise"
+    assert f.samples == pytest.approx(16 * (0.125 / 0.01) ** 2)
+    assert f.seconds == pytest.approx(f.samples * 0.1)
+    assert f.seconds_low < f.seconds < f.seconds_high
+
+
+def test_a_resumed_film_counts_only_the_time_of_this_render():
+    rng = np.random.default_rng(4)
+    tracker = ForecastTracker(cap=1_000_000, start_samples=100, noise_target=0.01, clock=lambda: 0.0)
+    film = noisy_film(rng, 116, 5.0)
+    f = tracker.update(film, 1.6, 0.05, 16, 1.6)  # 16 samples of this render in 1.6 s
+    # 116 * 25 = 2900 samples in all, 2784 of them still to render at 0.1 s each
+    assert f.samples == pytest.approx(2900) and f.seconds == pytest.approx(2784 * 0.1 + 1.6)
+
+
+def test_timing_spread_and_a_smaller_pilot():
+    assert timing_spread([0.1]) == 0.25
+    assert timing_spread([0.1, 0.1, 0.1]) == 0.05
+    assert 0.05 < timing_spread([0.1, 0.2, 0.1, 0.2]) <= 0.5
+    assert scaled_to(reading(per=0.5), 4.0).sample_seconds == 2.0
+
+
+def test_the_forecast_is_said_in_words():
+    from rt.progress import forecast_sentence, percent, spoken_seconds
+
+    assert [spoken_seconds(s) for s in (0.42, 45.2, 130, 2400, 5000)] == ["0.4 s", "45 s", "2 min 10 s", "40 min", "1 h 23 min"]
+    assert (percent(0.01), percent(0.0052), percent(0.123)) == ("1%", "0.52%", "12%")
+    f = Forecast("noise", 1600, 1296, 1936, 130.0, 110.0, 160.0, 0.01, 0.01, 0.01)
+    assert forecast_sentence(f, 0.01) == ("about 2 min 10 s to 1% noise (1 min 50 s to 2 min 40 s, 95% range), "
+                                          "about 1,600 samples per pixel")
+    f = Forecast("time", 200, 167, 250, 100.0, 100.0, 100.0, 0.028, 0.023, 0.034)
+    assert forecast_sentence(f) == "about 2.8% noise at the end of the time budget (2.3% to 3.4%), in about 1 min 40 s"
+    f = Forecast("samples", 400, 400, 400, 200.0, 180.0, 220.0, 0.02, 0.018, 0.022, "rare bright paths dominate.")
+    assert forecast_sentence(f, 0.01) == (
+        "about 2% noise at 400 samples per pixel (1.8% to 2.2%), in about 3 min 20 s (3 min to 3 min 40 s, 95% range): "
+        "the sample cap comes before the 1% target; rare bright paths dominate, so it may take longer")

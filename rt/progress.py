@@ -6,6 +6,49 @@ import sys
 from typing import Optional
 
 
+def spoken_seconds(seconds: float) -> str:
+    """A duration as a forecast says it, to about two figures: '0.4 s', '45 s', '2 min 10 s', '1 h 05 min'."""
+    if seconds != seconds or seconds == float("inf"):
+        return "an unbounded time"
+    if seconds < 10:
+        return f"{seconds:.1f} s"
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 600:
+        minutes, sec = divmod(int(round(seconds / 10) * 10), 60)
+        return f"{minutes} min {sec} s" if sec else f"{minutes} min"
+    if seconds < 3600:
+        return f"{int(round(seconds / 60))} min"
+    hours, minutes = divmod(int(round(seconds / 60)), 60)
+    return f"{hours} h {minutes:02d} min"
+
+
+def percent(noise: float) -> str:
+    """A relative noise as a percentage with two figures: 1%, 0.52%, 12%."""
+    value = 100 * noise
+    return f"{value:.2g}%" if value < 10 else f"{value:.0f}%"
+
+
+def forecast_sentence(forecast, noise_target=None) -> str:
+    """What a forecast (renderer.forecast.Forecast) says, in one line: the time to a noise target
+    with its range, or the noise a budget of time or samples ends at with its range."""
+    times = f"({spoken_seconds(forecast.seconds_low)} to {spoken_seconds(forecast.seconds_high)}, 95% range)"
+    if forecast.stop == "noise":
+        line = (f"about {spoken_seconds(forecast.seconds)} to {percent(noise_target)} noise {times}, "
+                f"about {forecast.samples:,.0f} samples per pixel")
+    else:
+        why = {"time": "at the end of the time budget", "samples": f"at {forecast.samples:,.0f} samples per pixel"}[forecast.stop]
+        line = (f"about {percent(forecast.noise)} noise {why} ({percent(forecast.noise_low)} to "
+                f"{percent(forecast.noise_high)}), in about {spoken_seconds(forecast.seconds)}")
+        if forecast.stop == "samples":
+            line += f" {times}"
+        if noise_target is not None:
+            line += f": the sample cap comes before the {percent(noise_target)} target"
+    if forecast.warning:
+        line += f"; {forecast.warning.rstrip('.')}, so it may take longer"
+    return line
+
+
 def fmt_seconds(seconds: float) -> str:
     if seconds < 60:
         return f"{seconds:.1f}s"
@@ -23,8 +66,14 @@ class Progress:
         self.tty = sys.stderr.isatty()
         self.last_decile = -1
         self.shown = (-1, "")  # the samples and noise figure of the last line drawn
+        self.forecast_said = False  # the first forecast is said on a line of its own
 
     def __call__(self, stats) -> None:
+        forecast = getattr(stats, "forecast", None)
+        if forecast is not None and not self.forecast_said:
+            self.forecast_said = True
+            self.notify(f"forecast: {forecast_sentence(forecast, self.noise)}, from a pilot of {stats.samples} samples "
+                        "per pixel; refined as the render goes")
         line, frac = self.line(stats)
         if self.tty:
             self.show(line, stats)
@@ -66,6 +115,11 @@ class Progress:
             frac = max(frac, (self.noise / stats.noise) ** 2)
         frac = min(frac, 1.0)
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
+        forecast = getattr(stats, "forecast", None)
+        if forecast is not None:  # the pilot's forecast, refreshed each step: it knows the cap and the budget
+            eta = forecast.left(stats.seconds)
+            if forecast.seconds > 0:
+                frac = min(1.0, max(frac if not self.noise else 0.0, stats.seconds / forecast.seconds))
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
         noise = self.noise_text(stats)
         line = (

@@ -256,10 +256,17 @@ def render(
     resume: Optional[Path] = typer.Option(
         None, "--resume", help="Continue the render saved with --save-state, up to --spp samples in all."
     ),
+    dry_run: bool = typer.Option(
+        False, "--dry-run",
+        help="Render only a short pilot (a few seconds; the kernel is compiled first if it is not yet) and say how long "
+        "the render would take to its --noise target, or the noise its --time budget or samples would reach, with a 95% "
+        "range; write no file.",
+    ),
     explain: bool = typer.Option(
         False, "--explain",
-        help="Print which effects the scene uses, the element that switches each on and the kernel chosen, then render "
-        "as usual (rt validate lists the effects without rendering).",
+        help="Print which effects the scene uses, the element that switches each on and the kernel chosen, and measure "
+        "what each expensive effect costs (path depth, media, an environment map, defocus, motion blur: short renders "
+        "with and without it, about 15 s in all), then render as usual (rt validate lists the effects without rendering).",
     ),
     integrator: Optional[str] = typer.Option(
         None, "--integrator",
@@ -289,6 +296,7 @@ def render(
     opts = RenderOptions(
         scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
+        dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
         syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
     )

@@ -38,6 +38,7 @@ class RenderOptions:
     save_state: Optional[Path] = None
     resume: Optional[Path] = None
     explain: bool = False
+    dry_run: bool = False  # --dry-run: a pilot and a forecast, no image (rt/dry_run.py)
     kernel: str = "auto"
     integrator: Optional[str] = None
     overrides: tuple[str, ...] = ()  # --set KEY.PATH=VALUE, in order
@@ -199,6 +200,9 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         budget_seconds = parse_duration(opts.time_budget)
         if budget_seconds is None:
             raise fail(f"error: --time {opts.time_budget!r}: expected a duration such as 30s, 2m, 1h30m or 45")
+    if opts.dry_run and (opts.cluster is not None or opts.resume is not None):
+        which = "--cluster" if opts.cluster is not None else "--resume"
+        raise fail(f"error: --dry-run forecasts a fresh render in this process: it cannot be combined with {which}")
     problem = option_problem(opts.kernel, opts.integrator, opts.threads)
     if problem == "kernel":
         from renderer.variants import KERNEL_CHOICES
@@ -260,8 +264,9 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     if opts.explain:
         from scenefmt.effects import summarize
 
-        say("explain: the effects this scene uses and the kernel that renders it; the render follows "
-            "(rt validate lists the effects without rendering)", err=True)
+        follows = "a dry run follows" if opts.dry_run else "the render follows"
+        say(f"explain: the effects this scene uses, the kernel that renders it and what each expensive effect costs; "
+            f"{follows} (rt validate lists the effects without rendering)", err=True)
         say(f"integrator: {graph.image.integrator}", err=True)
         for effect in summarize(graph).effects:
             say(f"{effect}", err=True)
@@ -350,6 +355,23 @@ def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
             f"(continue with --resume {rescued[0]})")
 
 
+def explain_costs(opts: RenderOptions, scene: PreparedScene, kernel) -> None:
+    """--explain: what each expensive effect of the scene costs (rt/effect_costs.py), from short
+    renders with `kernel` (the one the render starts with), said on standard error."""
+    from renderer.session import scene_graph_with
+
+    from .effect_costs import costs
+
+    graph = scene_graph_with(scene.loaded, opts.width, opts.integrator)
+    found = costs(graph, kernel, max_depth=opts.max_depth, seed=opts.seed, threads=opts.threads,
+                  say=lambda line: say(line, err=True))
+    if not found:
+        say("explain: no expensive effect to measure (path depth above 4, media, an environment map, defocus, motion blur)",
+            err=True)
+    for cost in found:
+        say(f"cost: {cost.sentence()}", err=True)
+
+
 def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, connection=None) -> None:
     """Render a prepared scene and write its images, on the cluster of `connection` if given
     (rt.cluster.Connection). Raises Stop for any end but success; Ctrl-C (SIGINT) or SIGTERM stops
@@ -361,6 +383,26 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     frame = scene.frame
     budgeted = scene.budget_seconds is not None or opts.noise is not None
     target = sample_target(opts.spp, frame, budgeted)
+    if opts.dry_run:
+        from renderer.variants import first_kernel
+
+        from .dry_run import dry_run
+
+        # Nothing is kept from a dry run: a stop signal ends it at once (StopSignals' first signal, Aborted).
+        with StopSignals(lambda line: say(line, err=True), lambda: True):
+            try:
+                if opts.explain:
+                    chosen = first_kernel(scene.features, opts.kernel)
+                    say(f"kernel: {chosen.tag} (the paths compiled in; this scene needs {scene.features.tag}; see "
+                        "docs/performance.md)", err=True)
+                    explain_costs(opts, scene, chosen)
+                dry_run(opts, scene, target, say)
+            except ValueError as exc:
+                raise fail(f"error: {opts.scene}: {exc}")
+            except Aborted as exc:
+                say(f"interrupted by {exc.name}: the dry run is stopped", err=True)
+                raise Stop(exc.status)
+        return
 
     def render_key():
         from renderer.state import RenderKey
@@ -400,6 +442,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     with StopSignals(bar.notify, lambda: not resumed and not bar.shown_any) as stop:
         step = "rendering"
         try:
+            if opts.explain:  # a signal here ends the command at once: nothing is rendered yet
+                explain_costs(opts, scene, first_kernel(features, opts.kernel))
             try:
                 result = render_scene(
                     flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,

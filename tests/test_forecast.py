@@ -147,3 +147,14 @@ def test_the_forecast_is_said_in_words():
     assert forecast_sentence(f, 0.01) == (
         "about 2% noise at 400 samples per pixel (1.8% to 2.2%), in about 3 min 20 s (3 min to 3 min 40 s, 95% range): "
         "the sample cap comes before the 1% target; rare bright paths dominate, so it may take longer")
+
+
+def test_a_dry_run_pilots_the_image_at_its_own_size_unless_even_four_samples_take_too_long():
+    from rt.dry_run import LEAST_PILOT_WIDTH, LONGEST_PILOT, pilot_size
+
+    assert pilot_size(200, 100, 1e-7) == (200, 3.0)  # fast: the usual 3 s
+    width, seconds = pilot_size(600, 600, 2e-6)  # 4 samples take 2.9 s: a little longer, at its own size
+    assert width == 600 and seconds == pytest.approx(1.3 * 4 * 2e-6 * 360_000)
+    width, seconds = pilot_size(4000, 3000, 2e-6)  # 4 samples would take 125 s
+    assert LEAST_PILOT_WIDTH <= width < 4000 and seconds == LONGEST_PILOT
+    assert 1.3 * 4 * 2e-6 * width * (width * 0.75) == pytest.approx(LONGEST_PILOT, rel=0.01)

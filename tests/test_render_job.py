@@ -101,9 +101,9 @@ def test_explain_says_that_the_render_follows(tmp_path, capsys):
 
     result = runner.invoke(app, ["render", "--help"], env={"COLUMNS": "200", "TERM": "dumb"})
     text = " ".join(result.stdout.replace("│", " ").split())
-    assert "the kernel chosen, then render as usual (rt validate lists the effects without rendering)" in text
+    assert "about 15 s in all), then render as usual (rt validate lists the effects without rendering)" in text
     path = write(tmp_path, "ball.yaml", SMALL)
     prepare(RenderOptions(scene=path, output=tmp_path / "ball.png", explain=True))
     first = capsys.readouterr().err.splitlines()[0]
-    assert first == ("explain: the effects this scene uses and the kernel that renders it; the render follows "
-                     "(rt validate lists the effects without rendering)")
+    assert first == ("explain: the effects this scene uses, the kernel that renders it and what each expensive effect "
+                     "costs; the render follows (rt validate lists the effects without rendering)")

@@ -209,9 +209,9 @@ class ForecastTracker:
     """The forecast of a render, refreshed after each of its steps (renderer/session.py).
 
     It stays None until the pilot is done (PILOT_SAMPLES of this render, or PILOT_SECONDS with
-    PILOT_LEAST_SAMPLES); then each update forecasts from everything measured so far: the speed
-    over this render's samples (a resumed film's earlier samples were timed by another run), the
-    noise over the whole film."""
+    PILOT_LEAST_SAMPLES); then each update forecasts from what was measured so far: the speed over
+    the latter half of this render's samples (`recent_sample_seconds`; a resumed film's earlier
+    samples were timed by another run), the noise over the whole film."""
 
     def __init__(self, *, cap: int, start_samples: int, noise_target: Optional[float] = None,
                  time_budget: Optional[float] = None, clock=time.perf_counter):
@@ -221,10 +221,21 @@ class ForecastTracker:
         self.time_budget = time_budget
         self.clock = clock
         self.step_times: list[float] = []  # seconds per sample of each step
+        self.history: list[tuple[int, float]] = [(start_samples, 0.0)]  # (film samples, render seconds) after each step
         self.interval: Optional[tuple[float, float]] = None  # (low, high) as factors on the noise
         self.warning: Optional[str] = None
         self.interval_at = -math.inf
         self.forecast: Optional[Forecast] = None
+
+    def recent_sample_seconds(self) -> float:
+        """Rendering seconds per sample per pixel over the latter half of this render's samples:
+        what the samples still to render will cost. Adaptive sampling stops pixels as it goes, so
+        a sample index costs less late in a render than early; the first pass's start-up is left
+        out too. The time between steps (noise estimates, progress) counts."""
+        samples, seconds = self.history[-1]
+        half = self.start + (samples - self.start) / 2
+        since = next(((n, t) for n, t in self.history if n >= half and n < samples), self.history[0])
+        return (seconds - since[1]) / max(1, samples - since[0])
 
     def pilot_done(self, samples: int, seconds: float) -> bool:
         done = samples - self.start
@@ -236,6 +247,7 @@ class ForecastTracker:
         if step_samples > 0:
             self.step_times.append(step_seconds / step_samples)
         samples = film.samples
+        self.history.append((samples, seconds))
         if not self.pilot_done(samples, seconds) or not 0 < noise < math.inf:
             return self.forecast
         now = self.clock()
@@ -244,15 +256,15 @@ class ForecastTracker:
             self.interval = (low / value, high / value) if value > 0 else (1.0, 1.0)
             self.interval_at = now
         lo, hi = self.interval
-        rendered = samples - self.start
-        reading = Reading(samples, noise, noise * lo, noise * hi, seconds / max(1, rendered),
+        reading = Reading(samples, noise, noise * lo, noise * hi, self.recent_sample_seconds(),
                           timing_spread(self.step_times), self.warning)
         if reading.usable:
-            # The forecast counts seconds from the film's first sample; this render's clock from its own.
-            earlier = self.start * reading.sample_seconds
-            budget = self.time_budget + earlier if self.time_budget is not None else None
+            # `forecast` counts seconds from the film's first sample at today's speed; this render's
+            # clock has counted `seconds` for what it holds now: the rest is at today's speed.
+            offset = seconds - samples * reading.sample_seconds
+            budget = self.time_budget - offset if self.time_budget is not None else None
             whole = forecast(reading, cap=self.cap, noise_target=self.noise_target, time_budget=budget)
-            self.forecast = shifted(whole, -earlier)
+            self.forecast = shifted(whole, offset)
         return self.forecast
 
 

@@ -158,3 +158,15 @@ def test_a_dry_run_pilots_the_image_at_its_own_size_unless_even_four_samples_tak
     width, seconds = pilot_size(4000, 3000, 2e-6)  # 4 samples would take 125 s
     assert LEAST_PILOT_WIDTH <= width < 4000 and seconds == LONGEST_PILOT
     assert 1.3 * 4 * 2e-6 * width * (width * 0.75) == pytest.approx(LONGEST_PILOT, rel=0.01)
+
+
+def test_the_tracker_times_the_samples_still_to_render_by_the_latter_half_of_the_render():
+    """As pixels stop (adaptive sampling), a sample index costs less: the first passes' speed would overstate the rest."""
+    tracker = ForecastTracker(cap=1_000_000, start_samples=0, noise_target=0.001, clock=lambda: 0.0)
+    film = noisy_film(np.random.default_rng(5), 32, 5.0)
+    for samples, seconds in ((8, 1.6), (16, 3.2), (24, 4.0), (32, 4.8)):  # 0.2 s a sample, then 0.1
+        film.samples = samples
+        tracker.update(film, seconds, 0.05, 8, 0.8)
+    assert tracker.recent_sample_seconds() == pytest.approx(0.1)
+    assert tracker.forecast.seconds == pytest.approx(4.8 + (32 * (0.05 / 0.001) ** 2 - 32) * 0.1)
+    assert tracker.forecast.left(4.8) == pytest.approx((32 * (0.05 / 0.001) ** 2 - 32) * 0.1)

@@ -55,8 +55,8 @@ class Reading:
 @dataclass(frozen=True)
 class Forecast:
     """Where a render is expected to stop, with ranges at CONFIDENCE: the samples per pixel and
-    rendering seconds in all (from the first sample, a resumed film's earlier samples counted at
-    today's speed), and the relative RMS noise of the image then. `stop` says what ends it:
+    rendering seconds in all (`forecast`: from the film's first sample at today's speed;
+    `ForecastTracker`: by the render's own clock), and the relative RMS noise of the image then. `stop` says what ends it:
     "noise" (the target), "time" (the budget) or "samples" (the cap, or the samples asked for)."""
 
     stop: str
@@ -171,9 +171,21 @@ def pooled_interval(variances: np.ndarray, dof: float, confidence: float = CONFI
     return math.sqrt(low), math.sqrt(high)
 
 
+def unbiased_noise(noise: float) -> float:
+    """The relative RMS noise `noise` (sqrt(sum se^2 / sum mean^2)) with its signal made unbiased.
+    A pixel's squared mean overstates its squared value by its own variance, se^2, on average, so
+    sum mean^2 - sum se^2 is the unbiased signal, and the noise over it is noise / sqrt(1 - noise^2).
+    At 16 samples per pixel of a sample spread as large as the value it is 3% more, which a
+    forecast, squared, makes 6% more samples; at the end of a render it is nothing. Above 0.7 the
+    correction is held at its value there (x1.4): so noisy a pilot says little anyway."""
+    if not 0 < noise < math.inf:
+        return noise
+    return noise / math.sqrt(1 - min(noise * noise, 0.5))
+
+
 def noise_interval(film, noise: Optional[float] = None) -> tuple[float, float, float, Optional[str]]:
-    """(noise, low, high, warning) of a film: its relative RMS noise and the interval for it at
-    CONFIDENCE. The film's own estimate (`film.estimate_noise`) is used where it states an
+    """(noise, low, high, warning) of a film: its relative RMS noise (`unbiased_noise`) and the
+    interval for it at CONFIDENCE. The film's own estimate (`film.estimate_noise`) is used where it states an
     interval; otherwise the interval is pooled from each pixel's variance estimate
     (`pooled_interval`): from the spread of its batch means when the film keeps them
     (BATCHES - 1 degrees of freedom each, honest under stratified samplers), else from its
@@ -184,12 +196,13 @@ def noise_interval(film, noise: Optional[float] = None) -> tuple[float, float, f
     low, high = getattr(estimate, "low", None), getattr(estimate, "high", None)
     value = estimate.relative_rms if noise is None else noise
     warning = getattr(estimate, "warning", None)
-    if low is not None and high is not None and math.isfinite(low) and math.isfinite(high) and low > 0:
-        return value, min(low, value), max(high, value), warning
     if not 0 < value < math.inf:
         return value, value, value, warning
-    # Each pixel's squared standard error (channels averaged) from its samples' sums of squares.
-    lo, hi = pooled_interval(np.square(estimate.error), film.samples - 1)
+    if low is not None and high is not None and math.isfinite(low) and math.isfinite(high) and low > 0:
+        lo, hi = min(low / value, 1.0), max(high / value, 1.0)
+    else:  # each pixel's squared standard error (channels averaged) from its samples' sums of squares
+        lo, hi = pooled_interval(np.square(estimate.error), film.samples - 1)
+    value = unbiased_noise(value)
     return value, value * lo, value * hi, warning
 
 
@@ -222,8 +235,8 @@ class ForecastTracker:
         self.clock = clock
         self.step_times: list[float] = []  # seconds per sample of each step
         self.history: list[tuple[int, float]] = [(start_samples, 0.0)]  # (film samples, render seconds) after each step
-        self.interval: Optional[tuple[float, float]] = None  # (low, high) as factors on the noise
-        self.warning: Optional[str] = None
+        # (film samples, noise, low, high, warning) of the last measurement of the film's noise
+        self.measured: Optional[tuple] = None
         self.interval_at = -math.inf
         self.forecast: Optional[Forecast] = None
 
@@ -241,29 +254,31 @@ class ForecastTracker:
         done = samples - self.start
         return done >= PILOT_SAMPLES or (seconds >= PILOT_SECONDS and done >= PILOT_LEAST_SAMPLES)
 
-    def update(self, film, seconds: float, noise: float, step_samples: int, step_seconds: float) -> Optional[Forecast]:
-        """After a step of `step_samples` that took `step_seconds`: the render's forecast, or None
-        before the pilot is done (or while the noise is not estimated)."""
+    def update(self, film, seconds: float, step_samples: int, step_seconds: float) -> Optional[Forecast]:
+        """After a step of `step_samples` that took `step_seconds` (`seconds`: the render's clock
+        now): the render's forecast, or None before the pilot is done (or while the film has no
+        noise to measure). The noise and its interval are measured on the film when the pilot is
+        done and then at most every INTERVAL_SECONDS; between, the forecast goes on from the last
+        measurement, made at the samples it was made at, and from the speed now."""
         if step_samples > 0:
             self.step_times.append(step_seconds / step_samples)
         samples = film.samples
         self.history.append((samples, seconds))
-        if not self.pilot_done(samples, seconds) or not 0 < noise < math.inf:
+        if not self.pilot_done(samples, seconds):
             return self.forecast
         now = self.clock()
-        if self.interval is None or now - self.interval_at >= INTERVAL_SECONDS:
-            value, low, high, self.warning = noise_interval(film, noise)
-            self.interval = (low / value, high / value) if value > 0 else (1.0, 1.0)
+        if self.measured is None or now - self.interval_at >= INTERVAL_SECONDS:
+            self.measured = (samples, *noise_interval(film))
             self.interval_at = now
-        lo, hi = self.interval
-        reading = Reading(samples, noise, noise * lo, noise * hi, self.recent_sample_seconds(),
-                          timing_spread(self.step_times), self.warning)
+        at, noise, low, high, warning = self.measured
+        reading = Reading(at, noise, low, high, self.recent_sample_seconds(), timing_spread(self.step_times), warning)
         if reading.usable:
             # `forecast` counts seconds from the film's first sample at today's speed; this render's
             # clock has counted `seconds` for what it holds now: the rest is at today's speed.
             offset = seconds - samples * reading.sample_seconds
             budget = self.time_budget - offset if self.time_budget is not None else None
-            whole = forecast(reading, cap=self.cap, noise_target=self.noise_target, time_budget=budget)
+            whole = forecast(reading, cap=self.cap, noise_target=self.noise_target, time_budget=budget,
+                             least=samples)
             self.forecast = shifted(whole, offset)
         return self.forecast
 

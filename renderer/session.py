@@ -111,15 +111,15 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
     target is reached; also the time of the last estimate.
 
     The estimate costs a pass over the film: it is made for a noise target, else for the
-    progress display or the forecast at most once a second. It needs a few samples before it is
-    trusted to stop on.
+    progress display at most once a second (the forecast makes its own as often). It needs a few
+    samples before it is trusted to stop on.
     """
     now = time.perf_counter()
-    if noise_target is not None or ((progress is not None or tracker is not None) and now - last_noise >= NOISE_DISPLAY_SECONDS):
+    if noise_target is not None or (progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS):
         stats.noise = relative_noise(film)
         last_noise = now
     if tracker is not None and step is not None:
-        stats.forecast = tracker.update(film, stats.seconds, stats.noise, step.samples, step.seconds)
+        stats.forecast = tracker.update(film, stats.seconds, step.samples, step.seconds)
     if progress is not None:
         progress(stats)
     reached = noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target

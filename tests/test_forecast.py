@@ -9,7 +9,7 @@ import pytest
 
 from renderer.film import Film
 from renderer.forecast import (Forecast, ForecastTracker, Reading, chi2_quantile, forecast, noise_after, noise_interval,
-                               pooled_interval, samples_for_noise, scaled_to, timing_spread)
+                               pooled_interval, samples_for_noise, scaled_to, timing_spread, unbiased_noise)
 
 
 def reading(noise=0.1, low=0.09, high=0.11, samples=16, per=0.5, spread=0.0):
@@ -107,12 +107,13 @@ def test_the_noise_interval_covers_the_true_noise_at_its_rate():
 def test_a_tracker_waits_for_the_pilot_then_forecasts_from_the_film():
     rng = np.random.default_rng(3)
     tracker = ForecastTracker(cap=1_000_000, start_samples=0, noise_target=0.01, clock=lambda: 0.0)
-    film = noisy_film(rng, 8, 5.0)
-    assert tracker.update(film, 0.8, 0.5 / math.sqrt(8), 8, 0.8) is None  # 8 samples in 0.8 s: no pilot yet
+    assert tracker.update(noisy_film(rng, 8, 5.0), 0.8, 8, 0.8) is None  # 8 samples in 0.8 s: no pilot yet
     film = noisy_film(rng, 16, 5.0)
-    f = tracker.update(film, 1.6, 0.125, 8, 0.8)
+    f = tracker.update(film, 1.6, 8, 0.8)
+    noise = noise_interval(film)[0]
+    assert noise == pytest.approx(unbiased_noise(0.5 / 4), rel=0.05)  # samples spread 5 around 10, 16 of them
     assert isinstance(f, Forecast) and f.stop == "noise"
-    assert f.samples == pytest.approx(16 * (0.125 / 0.01) ** 2)
+    assert f.samples == pytest.approx(16 * (noise / 0.01) ** 2)
     assert f.seconds == pytest.approx(f.samples * 0.1)
     assert f.seconds_low < f.seconds < f.seconds_high
 
@@ -121,9 +122,29 @@ def test_a_resumed_film_counts_only_the_time_of_this_render():
     rng = np.random.default_rng(4)
     tracker = ForecastTracker(cap=1_000_000, start_samples=100, noise_target=0.01, clock=lambda: 0.0)
     film = noisy_film(rng, 116, 5.0)
-    f = tracker.update(film, 1.6, 0.05, 16, 1.6)  # 16 samples of this render in 1.6 s
-    # 116 * 25 = 2900 samples in all, 2784 of them still to render at 0.1 s each
-    assert f.samples == pytest.approx(2900) and f.seconds == pytest.approx(2784 * 0.1 + 1.6)
+    f = tracker.update(film, 1.6, 16, 1.6)  # 16 samples of this render in 1.6 s
+    need = 116 * (noise_interval(film)[0] / 0.01) ** 2  # about 116 * 21 = 2400 samples in all
+    assert f.samples == pytest.approx(need) and f.seconds == pytest.approx((need - 116) * 0.1 + 1.6)
+
+
+def test_the_tracker_times_the_samples_still_to_render_by_the_latter_half_of_the_render():
+    """As pixels stop (adaptive sampling), a sample index costs less: the first passes' speed would overstate the rest."""
+    tracker = ForecastTracker(cap=1_000_000, start_samples=0, noise_target=0.001, clock=lambda: 0.0)
+    x = 10.0 + 5.0 * np.random.default_rng(5).standard_normal((32, 20, 30, 1)).repeat(3, axis=3)
+    films = {n: Film(x[:n].sum(axis=0), np.square(x[:n]).sum(axis=0), n) for n in (8, 16, 24, 32)}
+    for samples, seconds in ((8, 1.6), (16, 3.2), (24, 4.0), (32, 4.8)):  # 0.2 s a sample, then 0.1
+        tracker.update(films[samples], seconds, 8, 0.8)
+    assert tracker.recent_sample_seconds() == pytest.approx(0.1)
+    need = 16 * (noise_interval(films[16])[0] / 0.001) ** 2  # measured once the pilot was done, at 16
+    assert tracker.forecast.seconds == pytest.approx(4.8 + (need - 32) * 0.1)
+    assert tracker.forecast.left(4.8) == pytest.approx((need - 32) * 0.1)
+
+
+def test_the_unbiased_noise_takes_the_noise_out_of_the_signal():
+    # sum mean^2 = 100 holds sum se^2 = 4 of noise: the noise is 2/sqrt(96), not 2/10
+    assert unbiased_noise(0.2) == pytest.approx(2 / math.sqrt(96))
+    assert unbiased_noise(0.001) == pytest.approx(0.001, rel=1e-6)
+    assert unbiased_noise(0.9) == pytest.approx(0.9 * math.sqrt(2)) and unbiased_noise(math.inf) == math.inf
 
 
 def test_timing_spread_and_a_smaller_pilot():
@@ -158,15 +179,3 @@ def test_a_dry_run_pilots_the_image_at_its_own_size_unless_even_four_samples_tak
     width, seconds = pilot_size(4000, 3000, 2e-6)  # 4 samples would take 125 s
     assert LEAST_PILOT_WIDTH <= width < 4000 and seconds == LONGEST_PILOT
     assert 1.3 * 4 * 2e-6 * width * (width * 0.75) == pytest.approx(LONGEST_PILOT, rel=0.01)
-
-
-def test_the_tracker_times_the_samples_still_to_render_by_the_latter_half_of_the_render():
-    """As pixels stop (adaptive sampling), a sample index costs less: the first passes' speed would overstate the rest."""
-    tracker = ForecastTracker(cap=1_000_000, start_samples=0, noise_target=0.001, clock=lambda: 0.0)
-    film = noisy_film(np.random.default_rng(5), 32, 5.0)
-    for samples, seconds in ((8, 1.6), (16, 3.2), (24, 4.0), (32, 4.8)):  # 0.2 s a sample, then 0.1
-        film.samples = samples
-        tracker.update(film, seconds, 0.05, 8, 0.8)
-    assert tracker.recent_sample_seconds() == pytest.approx(0.1)
-    assert tracker.forecast.seconds == pytest.approx(4.8 + (32 * (0.05 / 0.001) ** 2 - 32) * 0.1)
-    assert tracker.forecast.left(4.8) == pytest.approx((32 * (0.05 / 0.001) ** 2 - 32) * 0.1)

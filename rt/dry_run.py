@@ -130,7 +130,7 @@ def dry_forecast(pilot: Pilot, *, cap: int, noise_target: Optional[float], time_
 def dry_run(opts, scene, target: int, say) -> None:
     """Run the pilot of a prepared scene (rt.render_job.PreparedScene) and say the forecast on
     standard output; write no file."""
-    from renderer.variants import SPECIALISED_COMPILE_SECONDS, first_kernel, is_compiled, worth_specialising
+    from renderer.variants import compile_wait, first_kernel, is_compiled, worth_specialising
 
     frame = scene.frame
     chosen = first_kernel(scene.features, opts.kernel)
@@ -153,5 +153,5 @@ def dry_run(opts, scene, target: int, say) -> None:
             "the render loads it from the cache")
     if (result is not None and opts.kernel == "auto" and chosen != scene.features and not is_compiled(scene.features)
             and worth_specialising(result.seconds)):
-        say(f"kernel: the render would also compile the kernel specialised to this scene (about "
-            f"{SPECIALISED_COMPILE_SECONDS:.0f} s, not counted above), and render a few per cent faster after it")
+        say(f"kernel: the render would also compile the kernel specialised to this scene ({compile_wait(scene.features)}, "
+            "not counted above), and render a few per cent faster after it")

@@ -122,9 +122,11 @@ class Progress:
                 frac = min(1.0, max(frac if not self.noise else 0.0, stats.seconds / forecast.seconds))
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
         noise = self.noise_text(stats)
+        # A noise target's end is unknown until the pilot has measured the noise: no figure rather than a wild one.
+        unknown = self.noise and forecast is None and not 0 < stats.noise < float("inf")
         line = (
             f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
-            f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
+            f"ETA {'after the pilot' if unknown else fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"
         )
         return line, frac
 

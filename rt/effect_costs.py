@@ -61,6 +61,7 @@ class Cost:
     noise: float  # noise per sample
     bias: float  # (mean without - mean with) / mean with
     bias_error: float  # the standard error of `bias`
+    dark: bool = False  # the image is black without it: it is the scene's only light
 
     @property
     def time_to_noise(self) -> float:
@@ -70,11 +71,17 @@ class Cost:
     def sentence(self) -> str:
         """'defocus (aperture 0): time per sample x1.8, noise x1.3 (so x3.0 the time to the same
         noise), bias -4% if removed'."""
+        if self.dark:
+            return (f"{self.effect} ({self.change}): time per sample x{self.time:.2f}; it is the scene's only light "
+                    "(the image is black without it)")
+        if not math.isfinite(self.noise):
+            return (f"{self.effect} ({self.change}): time per sample x{self.time:.2f}, and all of the noise "
+                    "(the image is the same in every sample without it)")
         bias = 100 * self.bias
         if abs(self.bias) > 3 * self.bias_error and abs(bias) >= 0.05:
-            what = f"bias {bias:+.1f}% if removed (+/- {100 * self.bias_error:.1f}%)"
+            what = f"bias {bias:+.1f}% if removed (+/- {100 * self.bias_error:.2g}%)"
         else:
-            what = f"no bias seen if removed (within +/- {300 * self.bias_error:.1f}%)"
+            what = f"no bias seen if removed (within +/- {300 * self.bias_error:.2g}%)"
         return (f"{self.effect} ({self.change}): time per sample x{self.time:.2f}, noise x{self.noise:.2f} "
                 f"(so x{self.time_to_noise:.2f} the time to the same noise), {what}")
 
@@ -197,4 +204,4 @@ def compare(variant: Variant, base: Measure, without: Measure) -> Cost:
         bias_error = math.hypot(base.mean_error, without.mean_error) / base.mean
     else:
         bias, bias_error = 0.0, 0.0
-    return Cost(variant.effect, variant.change, time, noise, bias, bias_error)
+    return Cost(variant.effect, variant.change, time, noise, bias, bias_error, dark=base.mean > 0 and without.mean == 0)

@@ -179,3 +179,22 @@ def test_a_dry_run_pilots_the_image_at_its_own_size_unless_even_four_samples_tak
     width, seconds = pilot_size(4000, 3000, 2e-6)  # 4 samples would take 125 s
     assert LEAST_PILOT_WIDTH <= width < 4000 and seconds == LONGEST_PILOT
     assert 1.3 * 4 * 2e-6 * width * (width * 0.75) == pytest.approx(LONGEST_PILOT, rel=0.01)
+
+
+def test_an_effects_cost_is_said_in_words():
+    from rt.effect_costs import Cost, Measure, Variant, compare
+
+    with_it = Measure(sample_seconds=0.018, variance=169.0, mean=0.5, mean_error=0.001, samples=100)
+    without = Measure(sample_seconds=0.010, variance=100.0, mean=0.52, mean_error=0.001, samples=180)
+    cost = compare(Variant("defocus", "a pinhole camera: aperture 0", None), with_it, without)
+    assert (cost.time, cost.noise) == (pytest.approx(1.8), pytest.approx(1.3))
+    assert cost.time_to_noise == pytest.approx(1.8 * 1.69)
+    assert cost.bias == pytest.approx(0.04) and cost.bias_error == pytest.approx(math.hypot(0.001, 0.001) / 0.5)
+    assert cost.sentence() == ("defocus (a pinhole camera: aperture 0): time per sample x1.80, noise x1.30 (so x3.04 the time "
+                               "to the same noise), bias +4.0% if removed (+/- 0.28%)")
+    within = compare(Variant("motion blur", "closed", None), with_it, Measure(0.010, 100.0, 0.5005, 0.001, 180))
+    assert "no bias seen if removed (within +/- 0.85%)" in within.sentence()
+    dark = compare(Variant("environment map", "a black background instead", None), with_it, Measure(0.008, 0.0, 0.0, 0.0, 200))
+    assert dark.sentence() == ("environment map (a black background instead): time per sample x2.25; it is the scene's only "
+                               "light (the image is black without it)")
+    assert isinstance(dark, Cost)

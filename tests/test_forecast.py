@@ -198,3 +198,15 @@ def test_an_effects_cost_is_said_in_words():
     assert dark.sentence() == ("environment map (a black background instead): time per sample x2.25; it is the scene's only "
                                "light (the image is black without it)")
     assert isinstance(dark, Cost)
+
+
+def test_a_dry_run_refuses_a_cluster_and_a_resume_in_one_sentence(tmp_path, capsys):
+    from rt.render_job import RenderOptions, Stop, prepare
+
+    scene = tmp_path / "s.yaml"
+    scene.write_text("shapes: [{type: sphere, center: [0, 0, -2], radius: 1}]\n")
+    for extra, name in (({"cluster": "local"}, "--cluster"), ({"resume": tmp_path / "run.npz"}, "--resume")):
+        with pytest.raises(Stop):
+            prepare(RenderOptions(scene=scene, output=tmp_path / "s.png", dry_run=True, **extra))
+        assert capsys.readouterr().err == (f"error: --dry-run forecasts a fresh render in this process: it cannot be "
+                                           f"combined with {name}\n")

@@ -40,7 +40,7 @@ def one(scene: str, width: int, noise: float, threads=None, pilot_width=None) ->
                          noise=noise, threads=threads, kernel="general")
     prepared = prepare(opts)
     t0 = time.perf_counter()
-    pilot = run_pilot(prepared.loaded, opts, prepared.frame, prepared.features, width=pilot_width)
+    pilot = run_pilot(prepared.loaded, opts, prepared.frame, prepared.features, target=BUDGET_SAMPLE_CAP, width=pilot_width)
     pilot_wall = time.perf_counter() - t0
     dry = dry_forecast(pilot, cap=BUDGET_SAMPLE_CAP, noise_target=noise, time_budget=None)
     first = []

@@ -1,8 +1,9 @@
 """`rt render --dry-run`: render a short pilot of the scene, say how long the render would take (or
 the noise it would reach), and write nothing.
 
-The pilot renders the scene's own image, up to PILOT_SAMPLES samples per pixel in about
-PILOT_SECONDS, and longer if it needs to for PILOT_LEAST_SAMPLES (at most LONGEST_PILOT). Only an
+The pilot renders the scene's own image for about PILOT_SECONDS, longer if it needs to for
+PILOT_LEAST_SAMPLES (at most LONGEST_PILOT), and shorter if it reaches the render's own end (its
+samples, or its noise target) before. Only an
 image too large for even that is piloted at a smaller width, its time per sample scaled by the
 pixel count: a smaller image's relative noise is higher (pixels that straddle the edge of a bright
 light are a larger share of it), and forecasts from 64 px pilots were 1.7 to 15 times the real
@@ -30,6 +31,9 @@ PROBE_SECONDS = 0.4
 # needs longer is piloted narrower, down to LEAST_PILOT_WIDTH.
 LONGEST_PILOT = 12.0
 LEAST_PILOT_WIDTH = 64
+# The most samples per pixel a pilot renders: a fast scene's pilot spends its seconds on more
+# samples, which narrows the forecast's range.
+PILOT_CAP = 4096
 
 
 @dataclass(frozen=True)
@@ -61,10 +65,11 @@ def pilot_size(width: int, height: int, pixel_sample_seconds: float) -> tuple[in
     return max(min(width, LEAST_PILOT_WIDTH), int(width * scale)), LONGEST_PILOT
 
 
-def render_pilot(loaded, opts, frame, features, *, width: int, samples: int, seconds: float, notify=None):
+def render_pilot(loaded, opts, frame, features, *, width: int, samples: int, seconds: float, notify=None,
+                 noise_target: Optional[float] = None):
     """Render the scene at `width` for at most `seconds` of rendering or `samples` samples per
-    pixel, with the render's own options (seed, depth, integrator, threads, kernel); a
-    RenderResult, and the seconds each step took per sample."""
+    pixel (or until `noise_target`), with the render's own options (seed, depth, integrator,
+    threads, kernel); a RenderResult, the pilot's Frame, and the seconds each step took per sample."""
     from renderer.flat import Frame
     from renderer.session import flatten_loaded
     from renderer.variants import features_of
@@ -84,15 +89,18 @@ def render_pilot(loaded, opts, frame, features, *, width: int, samples: int, sec
 
     result = render_scene(flat, small, features_of(graph) if features is None else features, target=samples,
                           kernel=opts.kernel, threads=opts.threads, progress=record, max_depth=opts.max_depth, seed=opts.seed,
-                          time_budget=seconds, notify=notify)
+                          time_budget=seconds, noise_target=noise_target, notify=notify)
     return result, small, steps
 
 
-def run_pilot(loaded, opts, frame, features, *, notify=None, width: Optional[int] = None) -> Pilot:
+def run_pilot(loaded, opts, frame, features, *, target: int = PILOT_CAP, notify=None, width: Optional[int] = None) -> Pilot:
     """The dry run's pilot: a probe for the speed, then the pilot proper (see the module's
-    docstring); `width` forces the pilot's width (benchmarks/forecast_error.py compares them)."""
+    docstring), which renders for its seconds unless it reaches the render's own end first: its
+    `target` samples per pixel or its --noise target. `width` forces the pilot's width
+    (benchmarks/forecast_error.py compares them)."""
     from renderer.film import relative_noise
-    from renderer.forecast import PILOT_SAMPLES, PILOT_SECONDS, Reading, noise_interval, scaled_to, timing_spread
+    from renderer.forecast import (PILOT_LEAST_SAMPLES, PILOT_SAMPLES, PILOT_SECONDS, Reading, noise_interval, scaled_to,
+                                   timing_spread)
 
     probe_width = min(frame.width, PROBE_WIDTH)
     probe, small, _ = render_pilot(loaded, opts, frame, features, width=probe_width, samples=PILOT_SAMPLES,
@@ -101,11 +109,13 @@ def run_pilot(loaded, opts, frame, features, *, notify=None, width: Optional[int
     per_pixel = probe.stats.seconds / max(1, probe.film.samples) / (small.width * small.height)
     chosen, seconds = pilot_size(frame.width, frame.height, per_pixel)
     width = chosen if width is None else width
-    if width == probe_width and probe.film.samples >= PILOT_SAMPLES:
+    if width == probe_width and probe.film.samples >= min(target, PILOT_CAP):
         result, steps = probe, None
     else:
-        result, small, steps = render_pilot(loaded, opts, frame, features, width=width, samples=PILOT_SAMPLES,
-                                            seconds=seconds if width == chosen else PILOT_SECONDS, notify=notify)
+        samples = min(PILOT_CAP, max(target, PILOT_LEAST_SAMPLES))
+        result, small, steps = render_pilot(loaded, opts, frame, features, width=width, samples=samples,
+                                            seconds=seconds if width == chosen else PILOT_SECONDS, notify=notify,
+                                            noise_target=opts.noise if width == frame.width else None)
         compile_seconds += result.stats.compile_seconds
     film = result.film
     noise, low, high, warning = noise_interval(film, relative_noise(film))
@@ -137,7 +147,7 @@ def dry_run(opts, scene, target: int, say) -> None:
     compiled = is_compiled(chosen)
     say("dry run: a pilot of a few seconds renders the scene; no image is written", err=True)
     started = time.perf_counter()
-    pilot = run_pilot(scene.loaded, opts, frame, scene.features, notify=lambda line: say(line, err=True))
+    pilot = run_pilot(scene.loaded, opts, frame, scene.features, target=target, notify=lambda line: say(line, err=True))
     size = ("the image's own size" if pilot.width == frame.width else
             f"the image is {frame.width}x{frame.height}, too large for a pilot of a few seconds: its smaller pixels may "
             "make the forecast too long")

@@ -24,22 +24,30 @@ shapes:
 """
 
 
+def seconds_of(spoken: str) -> float:
+    """Seconds in a duration as rt.progress.spoken_seconds says it: '0.4 s', '2 min 10 s', '1 h 05 min'."""
+    units = {"h": 3600, "min": 60, "s": 1}
+    parts = re.fullmatch(r"(?:([\d.]+) h)? ?(?:([\d.]+) min)? ?(?:([\d.]+) s)?", spoken.strip())
+    assert parts and any(parts.groups()), spoken
+    return sum(float(v) * u for v, u in zip(parts.groups(), units.values()) if v)
+
+
 @pytest.mark.slow
 def test_a_dry_run_says_a_time_to_the_target_and_writes_nothing(tmp_path):
     (tmp_path / "foggy.yaml").write_text(FOGGY)
-    out = subprocess.run([sys.executable, "-m", "rt", "render", "foggy.yaml", "--dry-run", "--noise", "0.02",
+    out = subprocess.run([sys.executable, "-m", "rt", "render", "foggy.yaml", "--dry-run", "--noise", "0.0005",
                           "--kernel", "general"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr
     assert "Traceback" not in out.stderr
     pilot = re.search(r"pilot: (\d+) samples per pixel at 40x26 \(the image's own size\)", out.stdout)
     assert pilot and int(pilot.group(1)) >= 4, out.stdout
-    line = re.search(r"forecast: about ([\d.]+) s to 2% noise \(([\d.]+) s to ([\d.]+) s, 95% range\), "
+    line = re.search(r"forecast: about (.+?) to 0.05% noise \((.+?) to (.+?), 95% range\), "
                      r"about ([\d,]+) samples per pixel", out.stdout)
     assert line, out.stdout
-    middle, low, high = (float(line.group(k)) for k in (1, 2, 3))
+    middle, low, high = (seconds_of(line.group(k)) for k in (1, 2, 3))
     assert 0 < low <= middle <= high
     samples = int(line.group(4).replace(",", ""))
-    assert samples > int(pilot.group(1))  # 2% is far below what a pilot of this tiny image reaches
+    assert samples > int(pilot.group(1))  # 0.05% is far below what a pilot of a few seconds reaches
     assert sorted(p.name for p in tmp_path.iterdir()) == ["foggy.yaml"]  # no image, no state
 
 

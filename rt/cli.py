@@ -265,8 +265,8 @@ def render(
     explain: bool = typer.Option(
         False, "--explain",
         help="Print which effects the scene uses, the element that switches each on and the kernel chosen, and measure "
-        "what each expensive effect costs (path depth, media, an environment map, defocus, motion blur: short renders "
-        "with and without it, about 15 s in all), then render as usual (rt validate lists the effects without rendering).",
+        "what each expensive effect costs (path depth, media, an environment map, defocus, motion blur, glossy "
+        "materials: short renders with and without it, about 15 s in all), then render as usual (rt validate lists the effects without rendering).",
     ),
     integrator: Optional[str] = typer.Option(
         None, "--integrator",

@@ -6,9 +6,10 @@ the image's mean brightness (the bias of leaving it out).
 The variants are made from the scene graph, as `renderer.compile.with_width` makes a narrower
 one: path depth (the scene's max_depth against SHORT_DEPTH), media (their boundaries' shapes keep
 their material, the medium inside is gone), the environment map (a black background), defocus
-(a pinhole camera) and motion blur (a shutter closed at its opening time). They render with the
-kernel the render starts with, which covers every variant (a variant only takes paths away), so
-nothing is compiled for them.
+(a pinhole camera), motion blur (a shutter closed at its opening time) and the glossy materials
+(conductors, rough and thin glass, plastics, principled: each a matte surface of its colour, at
+most MATTE_ALBEDO). They render with the kernel the render starts with, which covers every
+variant (a variant only takes paths away), so nothing is compiled for them.
 """
 
 from __future__ import annotations
@@ -110,6 +111,64 @@ def _without_media(graph):
     return dataclasses.replace(graph, root=root, groups=[copies.get(id(g), g) for g in graph.groups], media=[])
 
 
+# A glossy material made matte keeps its colour, at most this albedo (a white tint would make a
+# white lambertian surface, whose paths barely end).
+MATTE_ALBEDO = 0.8
+
+
+def _matte_of(material):
+    """A lambertian MaterialNode of a glossy material's colour (its albedo, base colour or tint);
+    other materials as they are."""
+    from scenefmt.effects import MATERIAL_KIND_EFFECTS
+    from scenefmt.graph import MaterialNode, TextureNode
+    from scenefmt.materials import Lambertian
+    from scenefmt.textures import SolidTexture
+
+    if material is None or material.kind not in MATERIAL_KIND_EFFECTS:
+        return material
+    colour = next((material.textures[key] for key in ("albedo", "base_color", "tint") if key in material.textures), None)
+    if colour is None or colour.kind == "solid":
+        rgb = colour.model.color if colour is not None else (MATTE_ALBEDO,) * 3
+        colour = TextureNode(SolidTexture(color=tuple(min(float(c), MATTE_ALBEDO) for c in rgb)), None, material.path)
+    return MaterialNode(Lambertian(), material.name, material.path, {"albedo": colour})
+
+
+def _without_glossy(graph):
+    """The graph with every glossy material (conductors, rough and thin glass, plastics, principled
+    materials) made a matte surface of its colour."""
+    from scenefmt.graph import GroupNode, InstanceNode, ShapeNode, SphereRunNode
+
+    mattes: dict[int, object] = {}
+
+    def matte(material):
+        if material is None:
+            return None
+        if id(material) not in mattes:
+            mattes[id(material)] = _matte_of(material)
+        return mattes[id(material)]
+
+    copies: dict[int, GroupNode] = {}
+
+    def group(g: GroupNode) -> GroupNode:
+        if id(g) in copies:
+            return copies[id(g)]
+        new = copies[id(g)] = dataclasses.replace(g, members=[])
+        for m in g.members:
+            if isinstance(m, ShapeNode):
+                new.members.append(dataclasses.replace(m, material=matte(m.material)))
+            elif isinstance(m, SphereRunNode):
+                new.members.append(dataclasses.replace(m, materials=[matte(x) for x in m.materials]))
+            elif isinstance(m, InstanceNode):
+                new.members.append(dataclasses.replace(m, group=group(m.group)))
+            else:
+                new.members.append(m)
+        return new
+
+    root = group(graph.root)
+    return dataclasses.replace(graph, root=root, groups=[copies.get(id(g), g) for g in graph.groups],
+                               materials=[matte(m) for m in graph.materials])
+
+
 def variants(graph, max_depth: int) -> list[Variant]:
     """The scene without each expensive effect it has (see the module's docstring)."""
     from scenefmt.effects import summarize
@@ -130,6 +189,8 @@ def variants(graph, max_depth: int) -> list[Variant]:
     if "motion" in on:
         shutter = graph.shutter.model_copy(update={"close": graph.shutter.open})
         out.append(Variant("motion blur", "the shutter closed at its opening time", dataclasses.replace(graph, shutter=shutter)))
+    if on & {"conductors", "rough_dielectrics", "plastics", "principled"}:
+        out.append(Variant("glossy materials", "each a matte surface of its colour", _without_glossy(graph)))
     return out
 
 

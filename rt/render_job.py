@@ -372,8 +372,8 @@ def explain_costs(opts: RenderOptions, scene: PreparedScene, kernel) -> None:
     found = costs(graph, kernel, max_depth=opts.max_depth, seed=opts.seed, threads=opts.threads,
                   say=lambda line: say(line, err=True))
     if not found:
-        say("explain: no expensive effect to measure (path depth above 4, media, an environment map, defocus, motion blur)",
-            err=True)
+        say("explain: no expensive effect to measure (path depth above 4, media, an environment map, defocus, motion blur, "
+            "glossy materials)", err=True)
     for cost in found:
         say(f"cost: {cost.sentence()}", err=True)
 

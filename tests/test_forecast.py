@@ -210,3 +210,41 @@ def test_a_dry_run_refuses_a_cluster_and_a_resume_in_one_sentence(tmp_path, caps
             prepare(RenderOptions(scene=scene, output=tmp_path / "s.png", dry_run=True, **extra))
         assert capsys.readouterr().err == (f"error: --dry-run forecasts a fresh render in this process: it cannot be "
                                            f"combined with {name}\n")
+
+
+def test_each_variant_of_explain_takes_away_its_own_effect_and_no_other(tmp_path):
+    """The scene graphs --explain renders (rt/effect_costs.py), checked by the effects rt validate reports: no render."""
+    from renderer.compile import compile_scene
+    from rt.effect_costs import variants
+    from scenefmt.effects import summarize
+    from scenefmt.validation import load_source
+
+    scene = tmp_path / "all.yaml"
+    scene.write_text("""
+camera: {look_from: [0, 1, 5], look_at: [0, 0.5, 0], vfov: 40, aperture: 0.2}
+image: {width: 16, max_depth: 12}
+shutter: {open: 0, close: 1}
+background: {type: sky}
+materials:
+  gold: {type: conductor, metal: Au, roughness: 0.3}
+  red: {type: plastic, albedo: [0.9, 0.1, 0.1], roughness: 0.2}
+  grey: {type: lambertian, albedo: [0.5, 0.5, 0.5]}
+media: {fog: {type: constant, density: 2.0}}
+shapes:
+  - {type: sphere, center: [0, -100, 0], radius: 100, material: grey}
+  - {type: sphere, center: [-1, 0.5, 0], radius: 0.5, material: gold}
+  - {type: moving_sphere, center0: [1, 0.5, 0], center1: [1, 0.7, 0], radius: 0.5, material: red}
+  - {type: sphere, center: [0, 0.5, -1], radius: 0.5, interior: fog}
+""")
+    graph = load_source(scene).graph
+    on = {e.key for e in summarize(graph).effects if e.on}
+    found = {v.effect: v for v in variants(graph, 12)}
+    assert list(found) == ["path depth", "media", "defocus", "motion blur", "glossy materials"]
+    assert found["path depth"].max_depth == 4 and found["path depth"].graph is graph
+    taken = {"media": {"media"}, "defocus": {"defocus"}, "motion blur": {"motion"},
+             "glossy materials": {"conductors", "plastics"}}
+    for name, keys in taken.items():
+        variant = found[name].graph
+        assert {e.key for e in summarize(variant).effects if e.on} == on - keys, name
+        compile_scene(variant)  # the renderer flattens it
+    assert {e.key for e in summarize(graph).effects if e.on} == on  # the scene itself is untouched

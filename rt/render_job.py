@@ -214,7 +214,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
     if problem == "threads":
         raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
-    for path, role in ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"), (opts.save_state, "state")):
+    # A dry run writes nothing, so its outputs are not checked (nor a batch's folder made).
+    outputs = () if opts.dry_run else ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"),
+                                       (opts.save_state, "state"))
+    for path, role in outputs:
         allowed = suffixes_of(role)
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
@@ -229,7 +232,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
 
-    problem = output_problem(opts)
+    problem = None if opts.dry_run else output_problem(opts)
     if problem:
         raise fail(problem)
 
@@ -245,7 +248,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         with recording_reads() as reads:  # the files a cluster's workers need
             loaded = load_source(opts.scene, opts.overrides, opts.syntax, opts.allow_paths)
             # Every input is known once the scene is read: check the outputs before any texture is decoded.
-            problem = input_problem(opts, reads)
+            problem = None if opts.dry_run else input_problem(opts, reads)
             if problem:
                 raise fail(problem)
             graph, flat = flatten_loaded(loaded, opts.width, opts.integrator)
@@ -548,7 +551,7 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
                 raise fail(f"error: the image {image} of {scene} is the scene file {scene_files[file_key(image)]} of this batch: "
                            "rendering would overwrite it; write the images elsewhere with -o DIR")
         out.append(dataclasses.replace(opts, scene=Path(scene), output=png, hdr=hdr))
-    if folder is not None and not folder.is_dir():  # `-o renders/` on a fresh checkout
+    if folder is not None and not folder.is_dir() and not opts.dry_run:  # `-o renders/` on a fresh checkout
         try:  # after every other check, so that a refused batch leaves nothing behind
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:  # a parent that is a file, a read-only place

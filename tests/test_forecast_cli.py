@@ -34,9 +34,10 @@ def seconds_of(spoken: str) -> float:
 
 @pytest.mark.slow
 def test_a_dry_run_says_a_time_to_the_target_and_writes_nothing(tmp_path):
+    """Its -o names a folder that does not exist: a dry run neither needs it nor makes it."""
     (tmp_path / "foggy.yaml").write_text(FOGGY)
     out = subprocess.run([sys.executable, "-m", "rt", "render", "foggy.yaml", "--dry-run", "--noise", "0.0005",
-                          "--kernel", "general"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+                          "--kernel", "general", "-o", "renders/foggy.png"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr
     assert "Traceback" not in out.stderr
     pilot = re.search(r"pilot: (\d+) samples per pixel at 40x26 \(the image's own size\)", out.stdout)
@@ -48,7 +49,7 @@ def test_a_dry_run_says_a_time_to_the_target_and_writes_nothing(tmp_path):
     assert 0 < low <= middle <= high
     samples = int(line.group(4).replace(",", ""))
     assert samples > int(pilot.group(1))  # 0.05% is far below what a pilot of a few seconds reaches
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["foggy.yaml"]  # no image, no state
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foggy.yaml"]  # no image, no folder for it
 
 
 @pytest.mark.slow

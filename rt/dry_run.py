@@ -3,11 +3,10 @@ the noise it would reach), and write nothing.
 
 The pilot renders the scene's own image for about PILOT_SECONDS, longer if it needs to for
 PILOT_LEAST_SAMPLES (at most LONGEST_PILOT), and shorter if it reaches the render's own end (its
-samples, or its noise target) before. Only an
-image too large for even that is piloted at a smaller width, its time per sample scaled by the
-pixel count: a smaller image's relative noise is higher (pixels that straddle the edge of a bright
-light are a larger share of it), and forecasts from 64 px pilots were 1.7 to 15 times the real
-time (docs/forecast.md). A first, tiny probe (a few tenths of a second at PROBE_WIDTH) measures
+samples, or its noise target) before. Only an image too large for even that is piloted at a
+smaller width, its time per sample scaled by the pixel count: a smaller image's relative noise is
+higher (pixels that straddle the edge of a bright light are a larger share of it), and forecasts
+from 64 px pilots were 1.7 to 15 times the real time (docs/forecast.md). A first, tiny probe (a few tenths of a second at PROBE_WIDTH) measures
 the speed that sizes the pilot. The forecast itself is `renderer.forecast`'s, the one a render
 refines as it goes.
 """
@@ -69,7 +68,7 @@ def render_pilot(loaded, opts, frame, features, *, width: int, samples: int, sec
                  noise_target: Optional[float] = None):
     """Render the scene at `width` for at most `seconds` of rendering or `samples` samples per
     pixel (or until `noise_target`), with the render's own options (seed, depth, integrator,
-    threads, kernel); a RenderResult, the pilot's Frame, and the seconds each step took per sample."""
+    threads, kernel); a RenderResult, the pilot's Frame, and (samples, seconds) of each step."""
     from renderer.flat import Frame
     from renderer.session import flatten_loaded
     from renderer.variants import features_of
@@ -78,19 +77,31 @@ def render_pilot(loaded, opts, frame, features, *, width: int, samples: int, sec
 
     graph, flat = flatten_loaded(loaded, width, opts.integrator)
     small = Frame.of(graph)
-    steps: list[float] = []
+    steps: list[tuple[int, float]] = []
     last = [0, 0.0]
 
     def record(stats) -> None:  # the session calls this after each step
         done, spent = stats.samples - last[0], stats.seconds - last[1]
         if done > 0:
-            steps.append(spent / done)
+            steps.append((done, spent))
         last[:] = [stats.samples, stats.seconds]
 
     result = render_scene(flat, small, features_of(graph) if features is None else features, target=samples,
                           kernel=opts.kernel, threads=opts.threads, progress=record, max_depth=opts.max_depth, seed=opts.seed,
                           time_budget=seconds, noise_target=noise_target, notify=notify)
     return result, small, steps
+
+
+def latter_half_speed(steps: list[tuple[int, float]]) -> float:
+    """Seconds per sample per pixel over the steps (samples, seconds) that hold the latter half of
+    the samples: the first pass's start-up left out, as the render's own forecast does."""
+    total = sum(n for n, _ in steps)
+    kept, spent = 0, 0.0
+    for n, t in reversed(steps):
+        kept, spent = kept + n, spent + t
+        if 2 * kept >= total:
+            break
+    return spent / max(1, kept)
 
 
 def run_pilot(loaded, opts, frame, features, *, target: int = PILOT_CAP, notify=None, width: Optional[int] = None) -> Pilot:
@@ -119,8 +130,9 @@ def run_pilot(loaded, opts, frame, features, *, target: int = PILOT_CAP, notify=
         compile_seconds += result.stats.compile_seconds
     film = result.film
     noise, low, high, warning = noise_interval(film, relative_noise(film))
-    reading = Reading(film.samples, noise, low, high, result.stats.seconds / max(1, film.samples),
-                      timing_spread(steps or []), warning)
+    steps = steps or [(film.samples, result.stats.seconds)]
+    reading = Reading(film.samples, noise, low, high, latter_half_speed(steps), timing_spread([t / n for n, t in steps]),
+                      warning)
     reading = scaled_to(reading, (frame.width * frame.height) / (small.width * small.height))
     return Pilot(reading, small.width, small.height, film.samples, result.stats.seconds, compile_seconds)
 

@@ -248,3 +248,11 @@ shapes:
         assert {e.key for e in summarize(variant).effects if e.on} == on - keys, name
         compile_scene(variant)  # the renderer flattens it
     assert {e.key for e in summarize(graph).effects if e.on} == on  # the scene itself is untouched
+
+
+def test_a_dry_run_times_its_pilot_by_the_latter_half_of_its_samples():
+    from rt.dry_run import latter_half_speed
+
+    assert latter_half_speed([(1, 0.5), (4, 0.4), (16, 1.6)]) == pytest.approx(0.1)  # the first pass's start-up left out
+    assert latter_half_speed([(8, 0.8), (8, 1.6)]) == pytest.approx(0.2)
+    assert latter_half_speed([(16, 1.6)]) == pytest.approx(0.1)

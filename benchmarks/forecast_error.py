@@ -6,7 +6,8 @@
 For each scene: the dry run's pilot and forecast (`rt render --dry-run`, rt/dry_run.py), then the
 render itself to the same target (`rt render --noise`), which also says its own first forecast
 after its pilot (renderer/forecast.py's ForecastTracker, what the progress line shows). Printed:
-both forecasts with their 95% ranges, the seconds the render took, and whether each range held it.
+both forecasts with their 95% ranges (the dry run's in samples too: those do not depend on the
+machine's load), the seconds and samples the render took, and whether each range held it.
 Times are rendering seconds (no compile: the kernel is compiled before the first measurement).
 """
 
@@ -70,9 +71,9 @@ def main() -> None:
     args = parser.parse_args()
     cases = [c for c in CASES if not args.scenes or c[0] in args.scenes]
     cases += [(s, 200, 0.05) for s in (args.scenes or []) if s not in {c[0] for c in CASES}]
-    print("| scene | width | target | pilot (spp at px, s) | dry-run forecast (95% range) | in-render forecast at spp "
-          "(95% range) | actual (spp) | dry held | in-render held | dry / actual |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | width | target | pilot (spp at px, s) | dry-run forecast (95% range) | dry-run samples (range) | "
+          "in-render forecast at spp (95% range) | actual (spp) | dry held | in-render held | dry / actual |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for scene, width, noise in cases:
         width = args.width or width
         noise = args.noise or noise
@@ -84,8 +85,9 @@ def main() -> None:
             first_text = f"{f.seconds:.1f} s at {n} ({f.seconds_low:.1f}-{f.seconds_high:.1f})"
         else:
             first_text = "none (reached first)"
+        samples_text = f"{dry.samples:.0f} ({dry.samples_low:.0f}-{dry.samples_high:.0f})" if dry else "none"
         print(f"| {scene} | {width} | {100 * noise:g}% | {p.samples} at {p.width} px, {p.seconds:.1f} s "
-              f"({r['pilot_wall']:.1f} s wall) | {dry_text} | {first_text} | {r['seconds']:.1f} s ({r['samples']}) | "
+              f"({r['pilot_wall']:.1f} s wall) | {dry_text} | {samples_text} | {first_text} | {r['seconds']:.1f} s ({r['samples']}) | "
               f"{held(dry, r['seconds']) if dry else '-'} | {held(first[2], r['seconds']) if first else '-'} | "
               f"{dry.seconds / r['seconds']:.2f} |" if dry else "- |", flush=True)
 

@@ -83,8 +83,10 @@ class PixelVariance:
 
 
 def _film_counts(film) -> np.ndarray:
-    counts = getattr(film, "counts", None)
-    if counts is None or np.size(counts) == 0:
+    """Samples each pixel holds: `film.samples` for all unless adaptive sampling stopped some
+    (as film.mean reads them)."""
+    counts, done = getattr(film, "counts", None), getattr(film, "done", None)
+    if counts is None or done is None or np.shape(counts) != film.total.shape[:2] or not np.any(done):
         return np.full(film.total.shape[:2], int(film.samples), np.int64)
     return np.asarray(counts)
 
@@ -185,9 +187,12 @@ def peak_outliers(film, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     peak = getattr(film, "peak", None)
     if peak is None or np.shape(peak) != film.total.shape:
         return np.zeros(shape), np.zeros(shape, bool)
-    ok = counts >= 3
-    n = np.where(ok, counts, 3).astype(np.float64)[:, :, None]
     T, Q = film.total, film.total_sq
+    # A film made from sums alone keeps zero peaks: a pixel whose peak is not its largest sample
+    # (zero where samples were not, or more than all its squares) has none to judge by.
+    peak_norm, squares = _channels(peak * peak), _channels(Q)
+    ok = (counts >= 3) & (peak_norm > 0) & (peak_norm <= squares * (1.0 + 1e-9))
+    n = np.where(ok, counts, 3).astype(np.float64)[:, :, None]
     squares_all = _channels(np.maximum(Q - T * T / n, 0.0))
     T1, Q1, n1 = T - peak, Q - peak * peak, n - 1.0
     squares_rest = _channels(np.maximum(Q1 - T1 * T1 / n1, 0.0))
@@ -196,7 +201,7 @@ def peak_outliers(film, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with np.errstate(divide="ignore", invalid="ignore"):
         share = np.where(squares_all > 0, np.clip(1.0 - squares_rest / squares_all, 0.0, 1.0), 0.0)
     values = np.unique(counts[ok])
-    limit = np.full(shape, np.inf)
+    limit = np.zeros(shape)  # where not ok the answer is False whatever the limit
     if values.size:
         limits = np.array([_outlier_distance(int(c)) for c in values])
         limit[ok] = limits[np.searchsorted(values, counts[ok])]

@@ -249,6 +249,16 @@ def relative_noise(film: Film) -> float:
     image, where the whole estimate took 30 ms.
     """
     n = film.samples
+    if not film.uniform:  # adaptive sampling stopped some pixels: each pixel's own count
+        n = np.maximum(film.counts, 1).astype(np.float64)[:, :, None]
+        if film.counts.min() < 2:
+            return float("inf")
+        mean = film.total / n
+        signal = float(np.square(mean).sum())
+        se2_sum = float((np.maximum(film.total_sq - film.total * mean, 0.0) / ((n - 1) * n)).sum())
+        if signal > 0:
+            return math.sqrt(se2_sum / signal)
+        return 0.0 if se2_sum == 0 else float("inf")
     if n < 2:
         return float("inf")
     # Sum over pixels of the unbiased sample variance (clamped at 0 against rounding), / n for

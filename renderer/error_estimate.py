@@ -43,7 +43,7 @@ PEAK_ALPHA = 1e-6
 # The warning fires when suspect pixels hold this share of the image's estimated variance or more
 # and make the image's variance estimate this uncertain (coefficient of variation) or more.
 SUSPECT_SHARE = 0.1
-SUSPECT_CV = 0.25
+SUSPECT_CV = 0.15
 
 
 @dataclass

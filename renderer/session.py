@@ -31,6 +31,9 @@ NOISE_DISPLAY_SECONDS = 1.0
 # Under a noise target the full estimate (a pass over the film's batches) is made at most once a
 # NOISE_DISPLAY_SECONDS, and at most once per this many times its own cost in rendering time.
 FULL_ESTIMATE_SHARE = 10.0
+# Films of at most this many pixels refresh the cheap estimate (under a millisecond) after every
+# step, so that the trend of the spread per sample is seen on short renders too.
+TREND_EVERY_STEP_PIXELS = 256 * 256
 
 
 @dataclass
@@ -116,7 +119,8 @@ class NoiseTarget:
 
     The full estimate is a pass over the film and its batches (tens of milliseconds at 600x600):
     it is made at most once a NOISE_DISPLAY_SECONDS and once per FULL_ESTIMATE_SHARE times its own
-    cost, so it never takes more than a tenth of the rendering time; on a small film, every step.
+    cost, so it never takes more than a tenth of the rendering time; on a small film (at most
+    TREND_EVERY_STEP_PIXELS, a few milliseconds), after every step.
     """
 
     def __init__(self, target: float):
@@ -129,7 +133,7 @@ class NoiseTarget:
         t0 = time.perf_counter()
         estimate = estimate_noise(film)
         cost = time.perf_counter() - t0
-        if cost * FULL_ESTIMATE_SHARE > 0.05:  # not a small film: at most once a second, a tenth of the time
+        if film.width * film.height > TREND_EVERY_STEP_PIXELS:  # not a small film: at most once a second, a tenth of the time
             self.next_at = now + max(NOISE_DISPLAY_SECONDS, cost * FULL_ESTIMATE_SHARE)
         stats.noise_high = estimate.high
         stats.noise_warning = estimate.warning or stats.noise_warning
@@ -143,13 +147,15 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
     progress, and say whether the noise target is reached; also the time of the last estimate.
 
     The cheap estimate (film.relative_noise) costs a pass over the film's sums: it is made for a
-    noise target, else for the progress display at most once a second, and each one feeds `trend`
+    noise target or a small film after every step, else at most once a second (for the progress
+    display and the trend), and each one feeds `trend`
     (whose warning goes to `stats.noise_warning`). The stop itself is `target`'s (a NoiseTarget of
     `noise_target`: the interval's upper end, no warning); without one, the cheap figure at or below
     `noise_target`. Either needs a few samples before it is trusted to stop on.
     """
     now = time.perf_counter()
-    if noise_target is not None or (progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS):
+    small = film.width * film.height <= TREND_EVERY_STEP_PIXELS
+    if noise_target is not None or small or now - last_noise >= NOISE_DISPLAY_SECONDS:
         stats.noise = relative_noise(film)
         last_noise = now
         if trend is not None:

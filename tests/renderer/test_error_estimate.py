@@ -58,19 +58,19 @@ def gaussian_image(rng, n, h=6, w=8):
     return mean, mean + sigma * z
 
 
-@pytest.mark.parametrize("n", [16, 21, 64])
+@pytest.mark.parametrize("n", [16, 21])
 def test_the_interval_covers_the_realised_error_at_its_rate(n):
     """Gaussian samples, 21 of them in unequal batches too: the 95% interval holds the film's true
-    error in 95% of 250 films (binomial sd 1.4%), and the estimate never warns."""
+    error in 95% of 200 films (binomial sd 1.5%), and the estimate never warns."""
     rng = np.random.default_rng(n)
     covered = warned = 0
-    for _ in range(250):
+    for _ in range(200):
         truth, x = gaussian_image(rng, n)
         film = film_of(x)
         est = estimate_noise(film)
         covered += est.low <= realised(film, truth) <= est.high
         warned += est.warning is not None
-    assert 0.90 <= covered / 250 <= 0.99
+    assert 0.90 <= covered / 200 <= 0.99
     assert warned == 0
 
 
@@ -123,7 +123,7 @@ def stratified_image(rng, n, h=10, w=10):
 def test_stratified_batches_stay_honest_where_single_samples_overstate():
     rng = np.random.default_rng(7)
     estimated, per_sample, actual, covered = [], [], [], 0
-    for _ in range(120):
+    for _ in range(80):
         truth, x = stratified_image(rng, 64)
         film = film_of(x)
         est = estimate(film)
@@ -133,11 +133,11 @@ def test_stratified_batches_stay_honest_where_single_samples_overstate():
         plain = Film(film.total, film.total_sq, film.samples)  # batches left empty: the per-sample variance
         per_sample.append(estimate(plain).relative_rms**2)
         covered += est.low <= error <= est.high
-    # Batch means: the mean squared estimate matches the mean squared error (120 films of 100 pixels).
+    # Batch means: the mean squared estimate matches the mean squared error (80 films of 100 pixels).
     assert np.mean(estimated) == pytest.approx(np.mean(actual), rel=0.1)
     # Single samples take the stratified samples for independent ones: far too pessimistic.
     assert np.mean(per_sample) > 4 * np.mean(actual)
-    assert 0.90 <= covered / 120 <= 1.0
+    assert 0.90 <= covered / 80 <= 1.0
 
 
 def heavy_image(rng, n, h=16, w=16, p=1e-3, spike=1000.0):
@@ -165,20 +165,20 @@ def test_rare_huge_samples_raise_the_warning_and_name_the_pixels():
     assert seen >= 25 and fired >= seen - 1
 
 
-@pytest.mark.parametrize("n, p", [(16, 1e-3), (64, 1e-3), (256, 1e-3), (16, 1e-2), (256, 1e-4)])
+@pytest.mark.parametrize("n, p", [(16, 1e-3), (256, 1e-3), (16, 1e-2), (256, 1e-4)])
 def test_under_rare_huge_samples_the_interval_holds_or_the_warning_fires(n, p):
     """From about 4 to 40 rare samples in an image whose true relative error is about 0.4: either
     the interval (widened by how unevenly the batches scatter) holds the true error, or the
-    warning says it cannot be trusted, in at least 90% of 40 films."""
+    warning says it cannot be trusted, in at least 90% of 30 films."""
     rng = np.random.default_rng(int(n / p))
     spike = 0.4 / (math.sqrt(p / n) - 0.4 * p)
     truth = np.full((16, 16, 3), 1.0 + spike * p)
     kept = 0
-    for _ in range(40):
+    for _ in range(30):
         film = film_of(heavy_image(rng, n, p=p, spike=spike))
         est = estimate(film)
         kept += est.warning is not None or est.low <= realised(film, truth) <= est.high
-    assert kept >= 36
+    assert kept >= 27
 
 
 @pytest.mark.parametrize("kind", ["gaussian", "uniform", "light edge"])
@@ -188,7 +188,7 @@ def test_light_tails_never_warn(kind, n):
     where in it a sample falls (the edge of a light seen directly: rare-ish bright samples in many
     pixels, which the image's estimate averages honestly)."""
     rng = np.random.default_rng(13)
-    for _ in range(10):
+    for _ in range(6):
         if kind == "gaussian":
             x = rng.normal(1.0, 0.3, (n, 16, 16, 3))
         elif kind == "uniform":

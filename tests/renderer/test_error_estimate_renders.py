@@ -41,15 +41,18 @@ def small(stem):
     return with_width(load(SCENES / f"{stem}.yaml").graph, 48)
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, 4])
 def test_the_warning_fires_on_sky_spheres_at_16_samples(seed):
+    """Seeds 1 and 4 found caustic paths in their 16 samples (seeds 2 and 3 found none: no trace
+    of them is in those films, and their estimate cannot know; docs/error_estimate.md)."""
     estimate = estimate_noise(render(small("sky_spheres"), samples=16, seed=seed, kernel="general").film)
     assert estimate.warning is not None and "rare bright paths dominate" in estimate.warning
     assert estimate.suspect.any()
 
 
 def test_the_warning_fires_on_a_caustic_under_glass():
-    estimate = estimate_noise(render(loads(CAUSTIC).graph, samples=16, seed=1, kernel="general").film)
+    """At 64 samples (3 of seeds 1-4 warn; at 16 samples none has found the caustic yet)."""
+    estimate = estimate_noise(render(loads(CAUSTIC).graph, samples=64, seed=1, kernel="general").film)
     assert estimate.warning is not None and estimate.suspect.any()
 
 

@@ -64,7 +64,10 @@ class NoiseEstimate:
     high: float = float("inf")
     confidence: float = CONFIDENCE
     warning: Optional[str] = None  # one sentence when the estimate cannot be trusted
-    suspect: Optional[np.ndarray] = None  # (h, w) bool: the pixels where rare bright samples dominate
+    # (h, w) bool: pixels whose single largest sample holds most of their variance and lies beyond
+    # what light tails give; the warning is about them. Set whether or not the image warns (the
+    # edge of a lamp seen directly makes many, each holding little of the image's error).
+    suspect: Optional[np.ndarray] = None
     error_high: Optional[np.ndarray] = None  # (h, w) upper bound of each pixel's standard error at `confidence`
     effective_pixels: float = 0.0  # pixels whose realised errors the image's error is a sum of, in effect
     estimate_dof: float = 0.0  # degrees of freedom of the image's variance estimate, in effect

@@ -117,7 +117,7 @@ class NoiseTarget:
     (film.estimate_noise) is at or below the target, and nothing says the estimate cannot be
     trusted (neither the estimate's heavy-tail warning nor the trend of the spread per sample).
 
-    The full estimate is a pass over the film and its batches (tens of milliseconds at 600x600):
+    The full estimate is a pass over the film and its batches (about 0.25 s of CPU at 600x600):
     it is made at most once a NOISE_DISPLAY_SECONDS and once per FULL_ESTIMATE_SHARE times its own
     cost, so it never takes more than a tenth of the rendering time; on a small film (at most
     TREND_EVERY_STEP_PIXELS, a few milliseconds), after every step.

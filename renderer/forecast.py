@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -45,6 +45,8 @@ class Reading:
     sample_seconds: float
     timing_spread: float = 0.0
     warning: Optional[str] = None  # the noise estimate's own word that it cannot be trusted
+    # A noise target stops when the estimate's upper end (this many times the noise) reaches it.
+    stop_factor: float = 1.0
 
     @property
     def usable(self) -> bool:
@@ -96,7 +98,9 @@ def forecast(reading: Reading, *, cap: float, noise_target: Optional[float] = No
              time_budget: Optional[float] = None, least: float = 1.0) -> Forecast:
     """Where a render stops: the first of the sample cap, the noise target and the time budget
     (seconds of rendering in all), from what `reading` measured, and never before `least`
-    samples per pixel (a render does not stop on its noise before a few samples). The middle of
+    samples per pixel (a render does not stop on its noise before a few samples). A noise target
+    is reached when the noise times `reading.stop_factor` (the estimate's upper end) falls to it:
+    the noise forecast at the end is the target over that factor. The middle of
     each range uses the middle of the pilot's noise and speed, its ends their ends; a time
     budget bounds every end of the range of seconds, a cap every end of the range of samples."""
     per = reading.sample_seconds
@@ -108,14 +112,14 @@ def forecast(reading: Reading, *, cap: float, noise_target: Optional[float] = No
         `speed` seconds per sample."""
         ends = [(float(cap), "samples")]
         if noise_target is not None:
-            ends.append((max(least, samples_for_noise(n0, noise, noise_target)), "noise"))
+            ends.append((max(least, samples_for_noise(n0, noise, noise_target / reading.stop_factor)), "noise"))
         if time_budget is not None and speed > 0:
             ends.append((max(least, time_budget / speed), "time"))
         samples, stop = min(ends, key=lambda end: end[0])
         seconds = samples * speed
         if time_budget is not None:
             seconds = min(seconds, time_budget)
-        end_noise = float(noise_target) if stop == "noise" else noise_after(n0, noise, samples)
+        end_noise = noise_target / reading.stop_factor if stop == "noise" else noise_after(n0, noise, samples)
         return samples, seconds, end_noise, stop
 
     samples, seconds, noise, stop = stop_at(reading.noise, per)
@@ -183,27 +187,45 @@ def unbiased_noise(noise: float) -> float:
     return noise / math.sqrt(1 - min(noise * noise, 0.5))
 
 
-def noise_interval(film, noise: Optional[float] = None) -> tuple[float, float, float, Optional[str]]:
-    """(noise, low, high, warning) of a film: its relative RMS noise (`unbiased_noise`) and the
-    interval for it at CONFIDENCE. The film's own estimate (`film.estimate_noise`) is used where it states an
-    interval; otherwise the interval is pooled from each pixel's variance estimate
-    (`pooled_interval`): from the spread of its batch means when the film keeps them
-    (BATCHES - 1 degrees of freedom each, honest under stratified samplers), else from its
-    samples' sums of squares (samples - 1 each)."""
+class NoiseReading(NamedTuple):
+    """A film's noise as a forecast reads it: the relative RMS noise (`unbiased_noise`), the
+    interval at CONFIDENCE for the noise the samples truly have (not yet known: the estimate's
+    own uncertainty), the estimate's warning, and `stop_factor`: how far above the noise the
+    figure a noise target stops on sits (the upper end of the interval for the render's realised
+    error, film.estimate_noise's `high`), as a multiple of it."""
+
+    noise: float
+    low: float
+    high: float
+    warning: Optional[str] = None
+    stop_factor: float = 1.0
+
+
+def noise_interval(film) -> NoiseReading:
+    """The noise of a film as a forecast reads it (NoiseReading), from its error estimate
+    (`film.estimate_noise`). The interval is a chi-square one on the estimate's own degrees of
+    freedom (`estimate_dof`: from the spread of the batch means' variance), or, for an estimate
+    that does not state them, pooled from each pixel's variance estimate (`pooled_interval`, with
+    samples - 1 degrees of freedom each). A few pixels that hold most of the noise leave few
+    degrees of freedom, and so a wide interval."""
     from .film import estimate_noise
 
     estimate = estimate_noise(film)
-    low, high = getattr(estimate, "low", None), getattr(estimate, "high", None)
-    value = estimate.relative_rms if noise is None else noise
+    value = estimate.relative_rms
     warning = getattr(estimate, "warning", None)
     if not 0 < value < math.inf:
-        return value, value, value, warning
-    if low is not None and high is not None and math.isfinite(low) and math.isfinite(high) and low > 0:
-        lo, hi = min(low / value, 1.0), max(high / value, 1.0)
+        return NoiseReading(value, value, value, warning)
+    dof = getattr(estimate, "estimate_dof", 0.0)
+    if dof > 0:
+        alpha = 1 - CONFIDENCE
+        lo = math.sqrt(dof / chi2_quantile(1 - alpha / 2, dof))
+        hi = math.sqrt(dof / max(chi2_quantile(alpha / 2, dof), 1e-12))
     else:  # each pixel's squared standard error (channels averaged) from its samples' sums of squares
         lo, hi = pooled_interval(np.square(estimate.error), film.samples - 1)
-    value = unbiased_noise(value)
-    return value, value * lo, value * hi, warning
+    unbiased = unbiased_noise(value)
+    high = getattr(estimate, "high", math.inf)
+    stop_factor = max(1.0, high / unbiased) if math.isfinite(high) else 1.0
+    return NoiseReading(unbiased, unbiased * lo, unbiased * hi, warning, stop_factor)
 
 
 def timing_spread(step_seconds: list[float]) -> float:
@@ -235,7 +257,7 @@ class ForecastTracker:
         self.clock = clock
         self.step_times: list[float] = []  # seconds per sample of each step
         self.history: list[tuple[int, float]] = [(start_samples, 0.0)]  # (film samples, render seconds) after each step
-        # (film samples, noise, low, high, warning) of the last measurement of the film's noise
+        # (film samples, NoiseReading) of the last measurement of the film's noise
         self.measured: Optional[tuple] = None
         self.interval_at = -math.inf
         self.forecast: Optional[Forecast] = None
@@ -268,10 +290,11 @@ class ForecastTracker:
             return self.forecast
         now = self.clock()
         if self.measured is None or now - self.interval_at >= INTERVAL_SECONDS:
-            self.measured = (samples, *noise_interval(film))
+            self.measured = (samples, noise_interval(film))
             self.interval_at = now
-        at, noise, low, high, warning = self.measured
-        reading = Reading(at, noise, low, high, self.recent_sample_seconds(), timing_spread(self.step_times), warning)
+        at, measured = self.measured
+        reading = Reading(at, measured.noise, measured.low, measured.high, self.recent_sample_seconds(),
+                          timing_spread(self.step_times), measured.warning, measured.stop_factor)
         if reading.usable:
             # `forecast` counts seconds from the film's first sample at today's speed; this render's
             # clock has counted `seconds` for what it holds now: the rest is at today's speed.

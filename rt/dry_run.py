@@ -109,7 +109,6 @@ def run_pilot(loaded, opts, frame, features, *, target: int = PILOT_CAP, notify=
     docstring), which renders for its seconds unless it reaches the render's own end first: its
     `target` samples per pixel or its --noise target. `width` forces the pilot's width
     (benchmarks/forecast_error.py compares them)."""
-    from renderer.film import relative_noise
     from renderer.forecast import (PILOT_LEAST_SAMPLES, PILOT_SAMPLES, PILOT_SECONDS, Reading, noise_interval, scaled_to,
                                    timing_spread)
 
@@ -129,10 +128,10 @@ def run_pilot(loaded, opts, frame, features, *, target: int = PILOT_CAP, notify=
                                             noise_target=opts.noise if width == frame.width else None)
         compile_seconds += result.stats.compile_seconds
     film = result.film
-    noise, low, high, warning = noise_interval(film, relative_noise(film))
+    measured = noise_interval(film)
     steps = steps or [(film.samples, result.stats.seconds)]
-    reading = Reading(film.samples, noise, low, high, latter_half_speed(steps), timing_spread([t / n for n, t in steps]),
-                      warning)
+    reading = Reading(film.samples, measured.noise, measured.low, measured.high, latter_half_speed(steps),
+                      timing_spread([t / n for n, t in steps]), measured.warning, measured.stop_factor)
     reading = scaled_to(reading, (frame.width * frame.height) / (small.width * small.height))
     return Pilot(reading, small.width, small.height, film.samples, result.stats.seconds, compile_seconds)
 

@@ -99,7 +99,7 @@ def test_the_noise_interval_covers_the_true_noise_at_its_rate():
     true = math.sqrt(np.mean(np.square(sigma)) / 16) / 10  # each pixel's mean is 10, its error sigma / 4
     covered = 0
     for _ in range(200):
-        noise, low, high, _ = noise_interval(noisy_film(rng, 16, sigma))
+        noise, low, high, *_ = noise_interval(noisy_film(rng, 16, sigma))
         covered += low <= true <= high
     assert 180 <= covered <= 199  # 95% of 200 is 190, binomial sd 3
 
@@ -110,10 +110,11 @@ def test_a_tracker_waits_for_the_pilot_then_forecasts_from_the_film():
     assert tracker.update(noisy_film(rng, 8, 5.0), 0.8, 8, 0.8) is None  # 8 samples in 0.8 s: no pilot yet
     film = noisy_film(rng, 16, 5.0)
     f = tracker.update(film, 1.6, 8, 0.8)
-    noise = noise_interval(film)[0]
-    assert noise == pytest.approx(unbiased_noise(0.5 / 4), rel=0.05)  # samples spread 5 around 10, 16 of them
+    measured = noise_interval(film)
+    assert measured.noise == pytest.approx(unbiased_noise(0.5 / 4), rel=0.05)  # samples spread 5 around 10, 16 of them
+    assert 1.0 < measured.stop_factor < 1.1  # 600 pixels: the interval's upper end is a few per cent up
     assert isinstance(f, Forecast) and f.stop == "noise"
-    assert f.samples == pytest.approx(16 * (noise / 0.01) ** 2)
+    assert f.samples == pytest.approx(16 * (measured.noise * measured.stop_factor / 0.01) ** 2)
     assert f.seconds == pytest.approx(f.samples * 0.1)
     assert f.seconds_low < f.seconds < f.seconds_high
 
@@ -123,7 +124,8 @@ def test_a_resumed_film_counts_only_the_time_of_this_render():
     tracker = ForecastTracker(cap=1_000_000, start_samples=100, noise_target=0.01, clock=lambda: 0.0)
     film = noisy_film(rng, 116, 5.0)
     f = tracker.update(film, 1.6, 16, 1.6)  # 16 samples of this render in 1.6 s
-    need = 116 * (noise_interval(film)[0] / 0.01) ** 2  # about 116 * 21 = 2400 samples in all
+    measured = noise_interval(film)
+    need = 116 * (measured.noise * measured.stop_factor / 0.01) ** 2  # about 116 * 21 = 2400 samples in all
     assert f.samples == pytest.approx(need) and f.seconds == pytest.approx((need - 116) * 0.1 + 1.6)
 
 
@@ -135,7 +137,8 @@ def test_the_tracker_times_the_samples_still_to_render_by_the_latter_half_of_the
     for samples, seconds in ((8, 1.6), (16, 3.2), (24, 4.0), (32, 4.8)):  # 0.2 s a sample, then 0.1
         tracker.update(films[samples], seconds, 8, 0.8)
     assert tracker.recent_sample_seconds() == pytest.approx(0.1)
-    need = 16 * (noise_interval(films[16])[0] / 0.001) ** 2  # measured once the pilot was done, at 16
+    measured = noise_interval(films[16])  # once the pilot was done, at 16
+    need = 16 * (measured.noise * measured.stop_factor / 0.001) ** 2
     assert tracker.forecast.seconds == pytest.approx(4.8 + (need - 32) * 0.1)
     assert tracker.forecast.left(4.8) == pytest.approx((need - 32) * 0.1)
 
@@ -256,3 +259,9 @@ def test_a_dry_run_times_its_pilot_by_the_latter_half_of_its_samples():
     assert latter_half_speed([(1, 0.5), (4, 0.4), (16, 1.6)]) == pytest.approx(0.1)  # the first pass's start-up left out
     assert latter_half_speed([(8, 0.8), (8, 1.6)]) == pytest.approx(0.2)
     assert latter_half_speed([(16, 1.6)]) == pytest.approx(0.1)
+
+
+def test_a_noise_target_stops_on_the_estimates_upper_end():
+    f = forecast(Reading(16, 0.1, 0.09, 0.11, 0.5, 0.0, None, 1.1), cap=1_000_000, noise_target=0.01)
+    assert f.stop == "noise" and f.samples == pytest.approx(16 * 11 ** 2)  # the upper end, 1.1 times the noise, at 1%
+    assert f.noise == pytest.approx(0.01 / 1.1)

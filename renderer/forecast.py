@@ -100,31 +100,35 @@ def forecast(reading: Reading, *, cap: float, noise_target: Optional[float] = No
     (seconds of rendering in all), from what `reading` measured, and never before `least`
     samples per pixel (a render does not stop on its noise before a few samples). A noise target
     is reached when the noise times `reading.stop_factor` (the estimate's upper end) falls to it:
-    the noise forecast at the end is the target over that factor. The middle of
-    each range uses the middle of the pilot's noise and speed, its ends their ends; a time
-    budget bounds every end of the range of seconds, a cap every end of the range of samples."""
+    the noise forecast at the end is the target over that factor. The middle of each range uses
+    the middle of the pilot's noise and speed and its stop factor, its ends their ends; the low
+    ends take the stop factor as 1, since the upper end comes down toward the noise as the
+    estimate gains degrees of freedom (material_spheres' render stopped at 0.6 times the samples
+    its pilot's factor forecast). A time budget bounds every end of the range of seconds, a cap every
+    end of the range of samples."""
     per = reading.sample_seconds
     slow, fast = per * (1 + reading.timing_spread), per * max(0.0, 1 - reading.timing_spread)
     n0 = reading.samples
 
-    def stop_at(noise: float, speed: float) -> tuple[float, float, float, str]:
-        """(samples, seconds, noise at the end, what stops it) for a noise of `noise` at n0 and
-        `speed` seconds per sample."""
+    def stop_at(noise: float, speed: float, factor: float) -> tuple[float, float, float, str]:
+        """(samples, seconds, noise at the end, what stops it) for a noise of `noise` at n0,
+        `speed` seconds per sample and a stop factor `factor`."""
         ends = [(float(cap), "samples")]
         if noise_target is not None:
-            ends.append((max(least, samples_for_noise(n0, noise, noise_target / reading.stop_factor)), "noise"))
+            ends.append((max(least, samples_for_noise(n0, noise, noise_target / factor)), "noise"))
         if time_budget is not None and speed > 0:
             ends.append((max(least, time_budget / speed), "time"))
         samples, stop = min(ends, key=lambda end: end[0])
         seconds = samples * speed
         if time_budget is not None:
             seconds = min(seconds, time_budget)
-        end_noise = noise_target / reading.stop_factor if stop == "noise" else noise_after(n0, noise, samples)
+        end_noise = noise_target / factor if stop == "noise" else noise_after(n0, noise, samples)
         return samples, seconds, end_noise, stop
 
-    samples, seconds, noise, stop = stop_at(reading.noise, per)
-    # The ranges: every pairing of the ends of the noise's interval and of the speed's.
-    corners = [stop_at(x, speed) for x in (reading.low, reading.high) for speed in (fast, slow)]
+    samples, seconds, noise, stop = stop_at(reading.noise, per, reading.stop_factor)
+    # The ranges: every pairing of the ends of the noise's interval (with the stop factor's) and of the speed's.
+    corners = [stop_at(x, speed, factor) for x, factor in ((reading.low, 1.0), (reading.high, reading.stop_factor))
+               for speed in (fast, slow)]
     return Forecast(stop, samples, min(c[0] for c in corners), max(c[0] for c in corners),
                     seconds, min(c[1] for c in corners), max(c[1] for c in corners),
                     noise, min(c[2] for c in corners), max(c[2] for c in corners), reading.warning)

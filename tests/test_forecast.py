@@ -265,3 +265,5 @@ def test_a_noise_target_stops_on_the_estimates_upper_end():
     f = forecast(Reading(16, 0.1, 0.09, 0.11, 0.5, 0.0, None, 1.1), cap=1_000_000, noise_target=0.01)
     assert f.stop == "noise" and f.samples == pytest.approx(16 * 11 ** 2)  # the upper end, 1.1 times the noise, at 1%
     assert f.noise == pytest.approx(0.01 / 1.1)
+    # the low end takes the factor as 1 (it falls toward the noise as the estimate firms up), the high end keeps it
+    assert f.samples_low == pytest.approx(16 * 9 ** 2) and f.samples_high == pytest.approx(16 * 12.1 ** 2)

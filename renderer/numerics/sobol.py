@@ -58,7 +58,6 @@ _M2 = np.uint64(0x33333333)
 _M4 = np.uint64(0x0F0F0F0F)
 _M8 = np.uint64(0x00FF00FF)
 _M16 = np.uint64(0x0000FFFF)
-_TOP = np.uint64(0x80000000)
 
 
 @target.device
@@ -97,21 +96,27 @@ def owen_scramble32(x, seed):
 
 
 @target.device
+def superset_parity32(y):
+    """Bit j of the result is the parity of the bits k of y whose positions k contain j's
+    binary digits (k AND j == j): y multiplied by Pascal's matrix mod 2, since C(k, j) is odd
+    exactly then (Lucas). One sweep per digit of the 5-bit positions, instead of a loop over
+    the bits of y (whose branches, on a shuffled index, cost more than the rest of a point)."""
+    y ^= (y >> uint64(1)) & _M1
+    y ^= (y >> uint64(2)) & _M2
+    y ^= (y >> uint64(4)) & _M4
+    y ^= (y >> uint64(8)) & _M8
+    return y ^ ((y >> uint64(16)) & _M16)
+
+
+@target.device
 def sobol_pair_coordinate(index, component):
     """Coordinate `component` (0 or 1) of point `index` of Sobol's first two dimensions, as a
     32-bit fraction: 0 is van der Corput's radical inverse; 1 has the direction numbers of the
-    polynomial x + 1 (v_0 = 1/2, v_k = v_{k-1} xor v_{k-1} / 2: Pascal's triangle mod 2)."""
+    polynomial x + 1, v_k = sum over j of (C(k, j) mod 2) 2^-(j+1) (Pascal's triangle mod 2:
+    v_0 = 1/2, v_k = v_{k-1} xor v_{k-1} / 2), so its digit j is `superset_parity32`'s bit j."""
     if component == 0:
         return reverse_bits32(index)
-    x = uint64(0)
-    v = _TOP
-    i = index
-    while i != uint64(0):
-        if i & uint64(1):
-            x ^= v
-        i >>= uint64(1)
-        v ^= v >> uint64(1)
-    return x
+    return reverse_bits32(superset_parity32(index))
 
 
 @target.device
@@ -152,6 +157,9 @@ def sobol_uniform(scramble, index, dim):
     i = uint64(index)
     h = fmix64(uint64(scramble) ^ fmix64(pair * _PAIR_SALT + (i >> uint64(32)) * _ODD))
     shuffled = owen_scramble32(i & _MASK32, h & _MASK32)
-    x = sobol_pair_coordinate(shuffled, component)
     coordinate_seed = fmix64(h + uint64(1) + component) & _MASK32
-    return float(owen_scramble32(x, coordinate_seed)) * _INV32
+    # owen_scramble32(sobol_pair_coordinate(shuffled, component), coordinate_seed), without the
+    # two bit reversals that cancel: the coordinate's digits, lowest first, are the shuffled
+    # index itself (van der Corput) or its superset parities.
+    digits = shuffled if component == uint64(0) else superset_parity32(shuffled)
+    return float(reverse_bits32(upward_hash32(digits, coordinate_seed))) * _INV32

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from renderer.numerics import rng
-from renderer.numerics.sobol import LIGHT_END, LIGHT_FIRST, owen_scramble32, pair_of, sobol_uniform
+from renderer.numerics.sobol import LIGHT_END, LIGHT_FIRST, owen_scramble32, pair_of, sobol_pair_coordinate, sobol_uniform
 from tests.renderer.stats import ALPHA, chi2_test, z_limit
 
 # Pairs of dimensions a path uses together, one from each part of rng.py's layout: the pixel,
@@ -151,3 +151,37 @@ def test_pairs_follow_rngs_layout():
     dims = [np.uint64(d) for d in range(8 + 10 * 6)] + [rng.light_dim.py_func(b, k) for b in range(6) for k in range(4)]
     dims += [rng.DIM_LENS_RETRY + np.uint64(k) for k in range(18)]
     assert len({tuple(int(v) for v in pair(d)) for d in dims}) == len(dims)
+
+
+def test_the_second_coordinate_has_the_direction_numbers_of_x_plus_1():
+    # Sobol's construction written out: XOR of v_k over the set bits k of the index, v_0 = 2^31
+    # (one half) and v_k = v_{k-1} ^ (v_{k-1} >> 1).
+    def by_directions(index):
+        x, v = 0, 1 << 31
+        while index:
+            if index & 1:
+                x ^= v
+            index >>= 1
+            v ^= v >> 1
+        return x
+
+    rng_ = np.random.default_rng(5)
+    for index in list(range(64)) + [int(i) for i in rng_.integers(0, 2**32, 200)] + [2**32 - 1]:
+        assert int(sobol_pair_coordinate.py_func(np.uint64(index), np.uint64(1))) == by_directions(index), index
+        assert int(sobol_pair_coordinate.py_func(np.uint64(index), np.uint64(0))) == int(f"{index:032b}"[::-1], 2)
+
+
+def test_the_points_are_fixed():
+    # A change of these numbers changes every Sobol image and every saved Sobol render's meaning.
+    index = [0, 1, 2, 3, 77, 1000, 2**31 + 5, 2**32 + 9]
+    dims = [0, 1, 9, 2**60 + 2, 2**61 + 17]
+    expected = [[3614591629, 2639918254, 2146151285, 3089140498, 128230689],
+                [1008401002, 1493396438, 3756979499, 349434477, 2792095516],
+                [3068157275, 282340225, 126946958, 1998114546, 1403477672],
+                [1810216725, 4282916988, 2687194903, 3626581828, 3860979194],
+                [952661383, 894511777, 3300945331, 2581835483, 2003651680],
+                [1486932320, 1301049199, 240451621, 475348427, 2150564828],
+                [2415668268, 839483725, 2040345185, 2543106664, 3326727032],
+                [561929022, 3903480943, 2845756444, 1859262789, 3709246924]]
+    got = [[round(points([0x0123456789ABCDEF], i, 1, [d])[0, 0, 0] * 2**32) for d in dims] for i in index]
+    assert got == expected

@@ -22,7 +22,9 @@ lowest first:
    `cdf`, `simd`: arithmetic, random numbers, sampling tables, the four-wide box test; before
    issue 30 they sat in `kernels/`), `columns` (table declarations), `config` (tuning constants),
    `kernel_flags`, `jit_cache`, `target` (how kernels are declared), `trees` (the instance and
-   tree tables) and `flat` (the flat scene's fields and the estimators' codes). Before issue 30
+   tree tables), `flat` (the flat scene's fields and the estimators' codes), `sampling` (the
+   samplers' codes and the kernels' sampling settings), `film_sums` (how a sample is added to a
+   pixel's sums) and `adaptive` (when a pixel may stop: issue 32). Before issue 30
    the whole `kernels/` folder counts here, since the categories stood on it for their vectors
    and random numbers; its tracing modules then import the categories, and those arrows run up:
    the folder was floor and roof at once.
@@ -49,7 +51,7 @@ PACKAGES = ("scenefmt", "renderer", "rt")
 
 FLOOR = frozenset({
     "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
-    "renderer.trees", "renderer.flat",
+    "renderer.trees", "renderer.flat", "renderer.sampling", "renderer.film_sums", "renderer.adaptive",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",

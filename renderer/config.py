@@ -14,3 +14,8 @@ MEDIA_DEFERRED = 8
 # the coordinates involved: float64 rounding of a hit point is ~1e-16 of that magnitude, so
 # 1e-9 leaves seven orders of margin while staying far below any feature a scene can resolve.
 SPAWN_OFFSET = 1e-9
+
+# Interleaved batches: sample s of a pixel belongs to batch s % BATCHES. The batches are independent
+# estimates of the pixel (with the Sobol sampler each is its own scrambled sequence), so the spread of
+# their means measures the error honestly even where samples within a batch are stratified.
+BATCHES = 8

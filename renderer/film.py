@@ -9,22 +9,67 @@ import secrets
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, NamedTuple, Optional
 
 import numpy as np
+
+from .config import BATCHES
+
+
+class PixelSums(NamedTuple):
+    """The arrays the kernels add samples into (film_sums.add_sample), all image-shaped (h, w, ...):
+    the whole film's, or one tile's (rt/chunks.py)."""
+
+    total: np.ndarray  # (h, w, 3) float64 sum of samples
+    total_sq: np.ndarray  # (h, w, 3) float64 sum of squared samples
+    batch: np.ndarray  # (h, w, BATCHES, 3) float64 sum of each batch's samples (sample s is in batch s % BATCHES)
+    peak: np.ndarray  # (h, w, 3) float64 the sample with the largest r^2 + g^2 + b^2
+    counts: np.ndarray  # (h, w) int64 samples the pixel holds (a dropped, non-finite one included)
+    done: np.ndarray  # (h, w) uint8 1 once adaptive sampling stopped the pixel
+
+
+# The film's arrays, in the order PixelSums holds them: what a state file and a cluster's chunk carry.
+SUM_ARRAYS = PixelSums._fields
 
 
 @dataclass
 class Film:
-    """Running sums of a render; `samples` is how many samples every pixel holds."""
+    """Running sums of a render, per pixel (see PixelSums). `samples` is the sample index every
+    pixel that is not done has reached: without adaptive sampling, how many samples every pixel
+    holds. A film made from `total`, `total_sq` and `samples` alone starts its batches and peaks
+    empty (its error is then judged from the samples' own spread)."""
 
     total: np.ndarray  # (h, w, 3) float64 sum of sample radiance
     total_sq: np.ndarray  # (h, w, 3) float64 sum of squared sample radiance
     samples: int = 0
+    batch: Optional[np.ndarray] = None
+    peak: Optional[np.ndarray] = None
+    counts: Optional[np.ndarray] = None
+    done: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        h, w = self.total.shape[:2]
+        if self.batch is None:
+            self.batch = np.zeros((h, w, BATCHES, 3))
+        if self.peak is None:
+            self.peak = np.zeros((h, w, 3))
+        if self.counts is None:
+            self.counts = np.full((h, w), self.samples, np.int64)
+        if self.done is None:
+            self.done = np.zeros((h, w), np.uint8)
 
     @classmethod
     def empty(cls, width: int, height: int) -> "Film":
         return cls(np.zeros((height, width, 3)), np.zeros((height, width, 3)), 0)
+
+    @classmethod
+    def of_sums(cls, sums: PixelSums, samples: int) -> "Film":
+        return cls(sums.total, sums.total_sq, samples, sums.batch, sums.peak, sums.counts, sums.done)
+
+    @property
+    def sums(self) -> PixelSums:
+        """The arrays the kernels add into (views of this film's own)."""
+        return PixelSums(self.total, self.total_sq, self.batch, self.peak, self.counts, self.done)
 
     @property
     def width(self) -> int:
@@ -34,14 +79,21 @@ class Film:
     def height(self) -> int:
         return self.total.shape[0]
 
+    @property
+    def uniform(self) -> bool:
+        """Whether every pixel holds `samples` samples (no pixel was stopped early)."""
+        return not self.done.any()
+
     def mean(self) -> np.ndarray:
         """The image: linear radiance per pixel (h, w, 3)."""
-        return self.total / max(self.samples, 1)
+        if self.uniform:
+            return self.total / max(self.samples, 1)
+        return self.total / np.maximum(self.counts, 1)[:, :, None]
 
     def mean_variance(self) -> np.ndarray:
         """The variance of each pixel's mean (h, w, 3): the samples' unbiased variance (clamped
         at 0 against rounding) over their number. Needs two samples or more."""
-        n = self.samples
+        n = self.samples if self.uniform else np.maximum(self.counts, 2)[:, :, None]
         return np.maximum(self.total_sq - self.total * (self.total / n), 0.0) / (n - 1) / n
 
 

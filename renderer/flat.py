@@ -78,6 +78,7 @@ class Frame(NamedTuple):
     max_depth: int
     seed: int
     integrator: str = "mis"  # a name of INTEGRATORS
+    sampler: str = "independent"  # a name of sampling.SAMPLERS
 
     @property
     def estimator(self) -> int:
@@ -87,4 +88,5 @@ class Frame(NamedTuple):
     @classmethod
     def of(cls, graph: "SceneGraph") -> "Frame":
         image = graph.image
-        return cls(image.width, image.pixel_height, image.samples_per_pixel, image.max_depth, image.seed, image.integrator)
+        return cls(image.width, image.pixel_height, image.samples_per_pixel, image.max_depth, image.seed, image.integrator,
+                   image.sampler)

@@ -14,6 +14,7 @@ from .executor import KernelTime, Plan, Step
 from .film import Film
 from .flat import FlatScene
 from .jit_cache import general_folder as kernel_cache_folder
+from .sampling import Sampling, uniform_sampling
 from .variants import KernelFeatures, compile_wait, is_compiled, kernel_set, mark_compiled
 
 # The first band of a render, before its speed is known, in rows per render thread: small, so
@@ -65,12 +66,12 @@ class PassUndo:
 
     def keep(self, rows: np.ndarray) -> None:
         """Before a band renders into the film's `rows`."""
-        self.saved.append((rows, self.film.total[rows], self.film.total_sq[rows]))
+        self.saved.append((rows, [array[rows] for array in self.film.sums]))
 
     def undo(self) -> None:
-        for rows, total, total_sq in self.saved:
-            self.film.total[rows] = total
-            self.film.total_sq[rows] = total_sq
+        for rows, arrays in self.saved:
+            for array, saved in zip(self.film.sums, arrays):
+                array[rows] = saved
         row_rays, row_bad, rays, bad = self.counts
         row_rays[:] = rays
         row_bad[:] = bad
@@ -89,10 +90,11 @@ class LocalPasses:
     stops_on_time_before_first_step = True
 
     def __init__(self, flat: FlatScene, width: int, height: int, *, seed: int, depth: int, estimator: int,
-                 pass_seconds: float, threads: int):
+                 pass_seconds: float, threads: int, sampling: Optional[Sampling] = None):
         from .tracing.integrator import row_stride
 
         self.flat = flat
+        self.sampling = sampling if sampling is not None else uniform_sampling()
         self.width, self.height = width, height
         self.seed, self.depth, self.estimator = seed, depth, estimator
         self.pass_seconds = pass_seconds
@@ -113,7 +115,7 @@ class LocalPasses:
 
         return cls(flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
                    depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
-                   pass_seconds=pass_seconds, threads=target.thread_count())
+                   pass_seconds=pass_seconds, threads=target.thread_count(), sampling=uniform_sampling(frame.sampler))
 
     def _load(self, chosen: KernelFeatures, notify) -> KernelTime:
         """The render pass of kernel `chosen`, compiled or loaded (and run once on one pixel)
@@ -124,7 +126,7 @@ class LocalPasses:
                    f"{kernel_cache_folder()}")
         t0 = time.perf_counter()
         chosen_pass = kernel_set(chosen).render_pass
-        chosen_pass(self.flat, 1, 1, self.seed, 0, 0, self.depth, self.estimator, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)),
+        chosen_pass(self.flat, 1, 1, self.seed, 0, 0, self.depth, self.estimator, self.sampling, Film.empty(1, 1).sums,
                     self.row_rays[:1], self.row_bad[:1], 0, 1)
         spent = time.perf_counter() - t0
         mark_compiled(chosen)
@@ -163,8 +165,8 @@ class LocalPasses:
                 undo = undo or PassUndo(film, self.row_rays, self.row_bad)
                 undo.keep((np.arange(start, end) * self.stride) % height)
             t0 = time.perf_counter()
-            self.render_pass(self.flat, self.width, height, self.seed, film.samples, n, self.depth, self.estimator, film.total,
-                             film.total_sq, self.row_rays, self.row_bad, start, end)
+            self.render_pass(self.flat, self.width, height, self.seed, film.samples, n, self.depth, self.estimator,
+                             self.sampling, film.sums, self.row_rays, self.row_bad, start, end)
             self.bands.measured(end - start, n, time.perf_counter() - t0)
             start = end
         return True

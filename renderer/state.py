@@ -31,9 +31,10 @@ import numpy as np
 
 from scenefmt.bounds import MAX_RADIANCE
 
-from .film import Film, _atomic_write
+from .config import BATCHES
+from .film import SUM_ARRAYS, Film, _atomic_write
 
-STATE_VERSION = 2  # 2: the key holds the integrator
+STATE_VERSION = 3  # 2: the key holds the integrator; 3: the sampler, and the batches, peaks and counts of every pixel
 # Samples per pixel a state may hold (the command line's cap, `--spp`).
 MAX_STATE_SAMPLES = 1_000_000
 _HEADER_BYTES = 4096  # an .npy header is at most this long here
@@ -54,6 +55,7 @@ class RenderKey:
     max_depth: int
     seed: int
     integrator: str = "mis"  # samples of different estimators have the same mean but are not one render
+    sampler: str = "independent"  # the samples' points: a render continues only with the same sampler
 
 
 def scene_fingerprint(scene_json: str) -> str:
@@ -64,7 +66,7 @@ def save_state(path: Path, film: Film, key: RenderKey) -> None:
     meta = json.dumps({"version": STATE_VERSION, **key.__dict__, "samples": film.samples})
 
     def write(fh):
-        np.savez(fh, total=film.total, total_sq=film.total_sq, meta=np.array(meta))
+        np.savez(fh, **{name: getattr(film, name) for name in SUM_ARRAYS}, meta=np.array(meta))
 
     _atomic_write(Path(path), write)
 
@@ -98,8 +100,10 @@ def _parse_npy(data: bytes, name: str, where: str, shape: tuple, kind: str) -> n
             raise ValueError(f"unsupported .npy version {version}")
     except (ValueError, OSError, EOFError, SyntaxError, TypeError) as exc:
         raise StateError(f"{where}: {name} is not a readable array ({exc})") from None
-    if dtype.hasobject or dtype.kind != kind or (kind == "f" and dtype.itemsize != 8) or dtype.itemsize > 4 * _META_BYTES:
-        raise StateError(f"{where}: {name} has the type {dtype}, not {'float64' if kind == 'f' else 'a string'}")
+    wanted = {"f": "float64", "i": "int64", "u": "uint8", "U": "a string"}[kind]
+    if (dtype.hasobject or dtype.kind != kind or (kind in "fi" and dtype.itemsize != 8) or (kind == "u" and dtype.itemsize != 1)
+            or dtype.itemsize > 4 * _META_BYTES):
+        raise StateError(f"{where}: {name} has the type {dtype}, not {wanted}")
     if tuple(got_shape) != tuple(shape):
         raise StateError(f"{where}: {name} has the shape {tuple(got_shape)}, not {tuple(shape)}")
     count = math.prod(shape)
@@ -127,7 +131,8 @@ def _meta(raw: np.ndarray, where: str) -> dict:
         # that was the only one.
         raise StateError(f"{where}: a render state of version {escape_version(meta.get('version'))}; this rt reads version "
                          f"{STATE_VERSION} (render it again)")
-    fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "integrator": str, "samples": int}
+    fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "integrator": str,
+              "sampler": str, "samples": int}
     if set(meta) != set(fields):
         missing, extra = sorted(set(fields) - set(meta)), sorted(set(meta) - set(fields))
         raise StateError(f"{where}: its metadata has the wrong fields (missing {missing}, unknown {extra})")
@@ -181,7 +186,7 @@ def describe_mismatch(saved: RenderKey, key: RenderKey) -> str:
     if (saved.width, saved.height) != (key.width, key.height):
         of.append(f"a {saved.width}x{saved.height} image (this render is {key.width}x{key.height})")
     parts = ["it is of " + " and of ".join(of)] if of else []
-    for name, label in (("max_depth", "max depth"), ("seed", "seed"), ("integrator", "integrator")):
+    for name, label in (("max_depth", "max depth"), ("seed", "seed"), ("integrator", "integrator"), ("sampler", "sampler")):
         if getattr(saved, name) != getattr(key, name):
             parts.append(f"{label} {getattr(saved, name)} (now {getattr(key, name)})")
     return "this state does not match this render: " + "; ".join(parts)
@@ -206,11 +211,17 @@ def load_state(path: Path, key: RenderKey, max_samples: int = MAX_STATE_SAMPLES)
         raise StateError(f"{where}: cannot read the file: {describe_os_error(exc)}") from None
 
 
+# Each array of a state: its shape after (height, width), and its kind of dtype (as _parse_npy takes it).
+_ARRAY_LAYOUT = {"total": ((3,), "f"), "total_sq": ((3,), "f"), "batch": ((BATCHES, 3), "f"), "peak": ((3,), "f"),
+                 "counts": ((), "i"), "done": ((), "u")}
+_ITEM_BYTES = {"f": 8, "i": 8, "u": 1}
+
+
 def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
-    pixels = key.width * key.height * 3
-    array_bytes = pixels * 8 + _HEADER_BYTES
+    pixels = key.width * key.height
+    sizes = {name: pixels * math.prod(tail) * _ITEM_BYTES[kind] + _HEADER_BYTES for name, (tail, kind) in _ARRAY_LAYOUT.items()}
     # Stored members can be no larger than their data; compressed ones are smaller still.
-    limit = 2 * array_bytes + _META_BYTES * 8 + 64 * 1024
+    limit = sum(sizes.values()) + _META_BYTES * 8 + 64 * 1024
     source = _BoundedReads(fh, max(limit, 1 << 17), where)  # zipfile looks for its directory in the last 64 KiB
     try:
         archive = zipfile.ZipFile(source)
@@ -220,12 +231,13 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
         raise StateError(f"{where}: not a saved render state, or one cut short (not a zip archive: {exc})") from None
     with archive:
         members = {info.filename: info for info in archive.infolist()}
-        expected = {"total.npy", "total_sq.npy", "meta.npy"}
+        expected = {f"{name}.npy" for name in SUM_ARRAYS} | {"meta.npy"}
         if set(members) != expected or len(archive.infolist()) != len(expected):
             raise StateError(f"{where}: not a saved render state (it holds {sorted(members)[:8]}, not {sorted(expected)})")
         meta_raw = _parse_npy(_read_member(archive, members["meta.npy"], _META_BYTES * 4 + _HEADER_BYTES, where), "meta", where, (), "U")
         meta = _meta(meta_raw, where)
-        saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"], meta["integrator"])
+        saved = RenderKey(meta["scene"], meta["width"], meta["height"], meta["max_depth"], meta["seed"], meta["integrator"],
+                          meta["sampler"])
         if saved != key:
             raise StateError(f"{where}: {describe_mismatch(saved, key)}")
         if source.size > limit:
@@ -234,23 +246,34 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
         samples = meta["samples"]
         if not 1 <= samples <= max_samples:
             raise StateError(f"{where}: it holds {samples} samples per pixel; a state holds 1 to {max_samples:,}")
-        shape = (key.height, key.width, 3)
         arrays = {}
-        for name in ("total", "total_sq"):
-            data = _read_member(archive, members[f"{name}.npy"], array_bytes, where)
-            arrays[name] = _parse_npy(data, name, where, shape, "f")
-    # Copies: the arrays read lie over the file's bytes, read-only, and the kernels add into them.
-    total = np.array(arrays["total"], dtype=np.float64, order="C")
-    total_sq = np.array(arrays["total_sq"], dtype=np.float64, order="C")
-    for name, array in (("total", total), ("total_sq", total_sq)):
-        if not np.isfinite(array).all():
+        for name in SUM_ARRAYS:
+            tail, kind = _ARRAY_LAYOUT[name]
+            data = _read_member(archive, members[f"{name}.npy"], sizes[name], where)
+            # Copies: the arrays read lie over the file's bytes, read-only, and the kernels add into them.
+            arrays[name] = np.array(_parse_npy(data, name, where, (key.height, key.width) + tail, kind), order="C")
+    _check_sums(arrays, samples, where)
+    return Film(samples=samples, **arrays)
+
+
+def _check_sums(arrays: dict, samples: int, where: str) -> None:
+    """Refuse sums no render of `samples` samples per pixel can have made: the kernels trust them."""
+    for name in ("total", "total_sq", "batch", "peak"):
+        if not np.isfinite(arrays[name]).all():
             raise StateError(f"{where}: {name} holds values that are not finite (NaN or infinite)")
     # A sample is at most the brightest radiance a scene may hold, times a margin for textures that
     # reflect a little more than their colour (turbulence): sums beyond are not this renderer's.
     most = samples * MAX_RADIANCE * 1e3
-    for name, array, top in (("total", total, most), ("total_sq", total_sq, most * MAX_RADIANCE * 1e3)):
+    for name, top in (("total", most), ("total_sq", most * MAX_RADIANCE * 1e3), ("batch", most), ("peak", MAX_RADIANCE * 1e3)):
+        array = arrays[name]
         if (array < 0).any():
             raise StateError(f"{where}: {name} holds negative sums (radiance is never negative)")
         if (array > top).any():
             raise StateError(f"{where}: {name} holds sums above {top:g}, more than {samples} samples can add up to")
-    return Film(total, total_sq, samples)
+    counts, done = arrays["counts"], arrays["done"]
+    if (done > 1).any():
+        raise StateError(f"{where}: done holds values other than 0 and 1")
+    if (counts < 0).any() or (counts > samples).any():
+        raise StateError(f"{where}: counts holds sample counts outside 0 to {samples}")
+    if (counts[done == 0] != samples).any():
+        raise StateError(f"{where}: a pixel that is not done holds another count than the state's {samples} samples")

@@ -223,20 +223,20 @@ class KernelSet:
     def __init__(self, features: KernelFeatures):
         self.features = features
 
-    def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+    def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
                     row_rays, row_bad, band_start, band_stop):
         """tracing.integrator.render_pass of this feature set: samples added to the whole film's
         sums, for the rows band_start..band_stop of the pass's row order (it allocates the
         threads' scratch and launches the parallel kernel `render_band`)."""
         return _kernel_module(self.features, "integrator").render_pass(S, width, height, seed, sample_start, sample_count,
-                                                                       max_depth, integrator, total, total_sq, row_rays,
+                                                                       max_depth, integrator, sampling, sums, row_rays,
                                                                        row_bad, band_start, band_stop)
 
-    def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+    def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
                     row_rays, row_bad):
         """tracing.tile.render_tile of this feature set: samples added to one tile's sums."""
         return target.launch(_kernel_module(self.features, "tile").render_tile, S, width, x0, y0, seed, sample_start,
-                             sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad)
+                             sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad)
 
 
 _sets: dict[str, KernelSet] = {}

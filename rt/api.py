@@ -358,6 +358,7 @@ def render(
     time: Union[None, float, str] = None,
     noise: Optional[float] = None,
     integrator: Optional[str] = None,
+    sampler: Optional[str] = None,
     max_depth: Optional[int] = None,
     threads: Optional[int] = None,
     overrides: Iterable[str] = (),
@@ -370,8 +371,8 @@ def render(
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
     `scene`: a file name, a `scenefmt` `Scene`, a dict of a scene's data, or `rt.load`'s result.
-    `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis" or "path") override the file's
-    values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
+    `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis" or "path"), `sampler`
+    ("independent" or "sobol") override the file's values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
     with `spp` then the cap; `overrides` are `--set` arguments; `progress=True` shows the
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
     between passes and ends the render early with what is rendered; `allow_paths`: folders besides
@@ -393,7 +394,7 @@ def render(
     from renderer.variants import KERNEL_CHOICES, features_of
 
     from .progress import Progress
-    from .rendering import max_threads, option_problem, render_scene, sample_target
+    from .rendering import max_threads, option_problem, render_scene, sample_target, sampler_override
 
     _check_int("spp", spp, 1, 1_000_000)
     _check_int("width", width, 1, 32768)
@@ -411,7 +412,7 @@ def render(
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
 
-    overrides = tuple(overrides)
+    overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
     loaded, graph, flat, reads = prepared.loaded, prepared.graph, prepared.flat, prepared.reads
     frame = Frame.of(graph)

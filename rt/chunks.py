@@ -150,7 +150,11 @@ def warm_tile_kernel(flat, features):
     from renderer.variants import kernel_set, mark_compiled
 
     kernel = kernel_set(features).render_tile
-    kernel(flat, 1, 0, 0, 0, 0, 0, 1, 1, np.zeros((1, 1, 3)), np.zeros((1, 1, 3)), np.zeros(1, np.int64), np.zeros(1, np.int64))
+    from renderer.film import Film
+    from renderer.sampling import uniform_sampling
+
+    kernel(flat, 1, 0, 0, 0, 0, 0, 1, 1, uniform_sampling(), Film.empty(1, 1).sums, np.zeros(1, np.int64),
+           np.zeros(1, np.int64))
     mark_compiled(features, "tile")
     return kernel
 
@@ -208,34 +212,35 @@ class Chunk:
     seed: int
     max_depth: int
     integrator: int  # flat.INTEGRATORS code
+    sampling: tuple  # renderer.sampling.Sampling
 
 
 @dataclass
 class ChunkResult:
-    total: Optional[np.ndarray] = None
-    total_sq: Optional[np.ndarray] = None
+    sums: Optional[tuple] = None  # renderer.film.PixelSums of the tile, continued
     rays: int = 0
     bad: int = 0
     seconds: float = 0.0  # rendering only
     error: Optional[str] = None  # a sentence, when the chunk could not run
 
 
-def render_chunk(package: ScenePackage, features, chunk: Chunk, total: np.ndarray, total_sq: np.ndarray) -> ChunkResult:
-    """The worker's task: continue the tile's sums `total`, `total_sq` (after the previous round)
-    with the chunk's samples. Failures come back as `error`, a sentence, rather than as an
-    exception: dask would print a worker's traceback, and the user needs one line, once."""
+def render_chunk(package: ScenePackage, features, chunk: Chunk, sums) -> ChunkResult:
+    """The worker's task: continue the tile's sums `sums` (renderer.film.PixelSums, after the
+    previous round) with the chunk's samples. Failures come back as `error`, a sentence, rather
+    than as an exception: dask would print a worker's traceback, and the user needs one line, once."""
     try:
+        from renderer.film import PixelSums
+
         built = build(package, features)
-        total = np.array(total, dtype=np.float64, order="C")  # arguments may arrive read-only
-        total_sq = np.array(total_sq, dtype=np.float64, order="C")
+        sums = PixelSums(*(np.array(array, order="C") for array in sums))  # arguments may arrive read-only
         rows = chunk.tile.height
         row_rays = np.zeros(rows, np.int64)
         row_bad = np.zeros(rows, np.int64)
         t0 = time.perf_counter()
         built.kernel(built.flat, chunk.image_width, chunk.tile.x0, chunk.tile.y0, chunk.seed, chunk.sample_start,
-                     chunk.sample_count, chunk.max_depth, chunk.integrator, total, total_sq, row_rays, row_bad)
+                     chunk.sample_count, chunk.max_depth, chunk.integrator, chunk.sampling, sums, row_rays, row_bad)
         seconds = time.perf_counter() - t0
-        return ChunkResult(total, total_sq, int(row_rays.sum()), int(row_bad.sum()), seconds)
+        return ChunkResult(sums, int(row_rays.sum()), int(row_bad.sum()), seconds)
     except ChunkFailed as exc:
         return ChunkResult(error=str(exc))
     except Exception as exc:  # noqa: BLE001 - reported once, in words, by the client

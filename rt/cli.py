@@ -266,6 +266,11 @@ def render(
         help="How light is found (overrides the file): mis (light sampling with multiple importance sampling, the "
         "default) or path (the books' estimator, which finds lights only by chance).",
     ),
+    sampler: Optional[str] = typer.Option(
+        None, "--sampler",
+        help="Where the samples fall (overrides the file): independent (fresh random numbers, the books') or sobol "
+        "(Owen-scrambled Sobol points in independently scrambled batches); the same as --set image.sampler=NAME.",
+    ),
     kernel: str = typer.Option(
         "auto", "--kernel",
         help="Which compiled kernel renders: auto (whatever is compiled; specialise a long render), general, or "
@@ -283,13 +288,14 @@ def render(
     import time
 
     from .render_job import RenderOptions, Stop, run, run_batch
+    from .rendering import sampler_override
 
     started = time.perf_counter()
     _check_stdin_use(scenes)
     opts = RenderOptions(
         scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
         time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
-        kernel=kernel, integrator=integrator, overrides=tuple(overrides), exposure=exposure,
+        kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
         syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
     )
     try:

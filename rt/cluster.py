@@ -200,8 +200,11 @@ class ClusterRounds:
     stops_on_time_before_first_step = False  # a spent budget still waits for the first round
 
     def __init__(self, client, package: chunks.ScenePackage, flat, width: int, height: int, *, seed: int, depth: int,
-                 estimator: int, chunk_seconds: float = chunks.CHUNK_SECONDS, warm_kernel: bool = True):
+                 estimator: int, chunk_seconds: float = chunks.CHUNK_SECONDS, warm_kernel: bool = True, sampling=None):
+        from renderer.sampling import uniform_sampling
+
         self.client = client
+        self.sampling = sampling if sampling is not None else uniform_sampling()
         self.package = package
         self.flat = flat
         self.width, self.height = width, height
@@ -219,12 +222,15 @@ class ClusterRounds:
                   warm_kernel: bool = True) -> "ClusterRounds":
         """The executor for `flat` with the image settings of `frame`, `seed` and `max_depth`
         overriding the scene's."""
+        from renderer.sampling import uniform_sampling
+
         return cls(client, package, flat, frame.width, frame.height, seed=seed if seed is not None else frame.seed,
                    depth=max_depth if max_depth is not None else frame.max_depth, estimator=frame.estimator,
-                   chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
+                   chunk_seconds=chunk_seconds, warm_kernel=warm_kernel, sampling=uniform_sampling(frame.sampler))
 
     def start(self, film, features, notify=None):
         from renderer.executor import KernelTime
+        from renderer.film import PixelSums
         from renderer.variants import compile_wait, is_compiled
 
         client = self.client
@@ -254,7 +260,7 @@ class ClusterRounds:
         self.scene = client.submit(chunks.package_value, package, key=f"rt-scene-{package.key}-{os.urandom(4).hex()}",
                                    pure=False)
         # Per tile: its sums after the last round it finished, and those of rounds not merged yet.
-        self.latest = [(t.of(film.total).copy(), t.of(film.total_sq).copy()) for t in self.tiles]
+        self.latest = [PixelSums(*(t.of(array).copy() for array in film.sums)) for t in self.tiles]
         self.done = [0] * len(self.tiles)  # rounds each tile has finished
         self.ahead: list[dict] = [{} for _ in self.tiles]  # round -> ChunkResult, for rounds past the merged film
         self.merged = 0  # rounds merged into the film
@@ -283,9 +289,8 @@ class ClusterRounds:
                                           budget_left, self.width * self.height, self.threads, self.chunk_seconds)
             rounds.plan(size)
         start, count = rounds.range(r)
-        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator)
-        total, total_sq = self.latest[i]
-        future = self.client.submit(chunks.render_chunk, self.scene, self.features, chunk, total, total_sq, pure=False,
+        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator, self.sampling)
+        future = self.client.submit(chunks.render_chunk, self.scene, self.features, chunk, self.latest[i], pure=False,
                                     key=f"rt-chunk-{self.package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         self.running[future] = (i, r)
         self.busy.add(i)
@@ -337,8 +342,8 @@ class ClusterRounds:
         rays = bad = 0
         for tile, a in zip(self.tiles, self.ahead):
             result = a.pop(self.merged)
-            tile.of(film.total)[...] = result.total
-            tile.of(film.total_sq)[...] = result.total_sq
+            for array, part in zip(film.sums, result.sums):
+                tile.of(array)[...] = part
             rays += result.rays
             bad += result.bad
         self.merged += 1
@@ -388,7 +393,7 @@ class ClusterRounds:
             result = self._chunk_result(future)
             if result.error is not None:
                 raise self._failure(result.error)
-            self.latest[i] = (result.total, result.total_sq)
+            self.latest[i] = result.sums
             self.ahead[i][r] = result
             self.done[i] = r + 1
             self.cost[0] += result.seconds

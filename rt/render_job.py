@@ -322,19 +322,25 @@ def cluster_failure(opts: RenderOptions, scene: PreparedScene, exc) -> Stop:
     return fail(f"{head}{exc}; {save_merged(opts, scene, partial.film)}")
 
 
+def render_key_of(opts: RenderOptions, frame, fingerprint: str):
+    """What a saved state of this render must match (renderer.state.RenderKey)."""
+    from renderer.state import RenderKey
+
+    return RenderKey(fingerprint, frame.width, frame.height, opts.max_depth if opts.max_depth is not None else frame.max_depth,
+                     opts.seed if opts.seed is not None else frame.seed, frame.integrator, frame.sampler)
+
+
 def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
     """Save `film` as a state to resume from: in --save-state, else (or if that fails) where
     outputs.rescue finds room. Where it went, as the end of an error line."""
-    from renderer.state import RenderKey, save_state, scene_fingerprint
+    from renderer.state import save_state, scene_fingerprint
     from scenefmt.files import describe_os_error
     from scenefmt.writing import dumps
 
     from .outputs import rescue
 
     fingerprint = scene.fingerprint or scene_fingerprint(dumps(scene.loaded.scene, "json"))
-    frame = scene.frame
-    key = RenderKey(fingerprint, frame.width, frame.height, opts.max_depth if opts.max_depth is not None else frame.max_depth,
-                    opts.seed if opts.seed is not None else frame.seed, frame.integrator)
+    key = render_key_of(opts, scene.frame, fingerprint)
     problem = ""
     if opts.save_state is not None:
         try:
@@ -363,17 +369,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     target = sample_target(opts.spp, frame, budgeted)
 
     def render_key():
-        from renderer.state import RenderKey
-
         assert scene.fingerprint is not None  # prepare computes it for --resume and --save-state
-        return RenderKey(
-            scene.fingerprint,
-            frame.width,
-            frame.height,
-            opts.max_depth if opts.max_depth is not None else frame.max_depth,
-            opts.seed if opts.seed is not None else frame.seed,
-            frame.integrator,
-        )
+        return render_key_of(opts, frame, scene.fingerprint)
 
     film = None
     if opts.resume is not None:

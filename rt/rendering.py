@@ -67,6 +67,12 @@ def option_problem(kernel: str, integrator: Optional[str], threads: Optional[int
     return None
 
 
+def sampler_override(sampler: Optional[str]) -> tuple[str, ...]:
+    """`--sampler NAME` (and rt.render's `sampler=`) as the `--set` it stands for: the scene's
+    validation checks the name, and the sampler travels with the scene to a cluster's workers."""
+    return () if sampler is None else (f"image.sampler={sampler}",)
+
+
 def sample_target(spp: Optional[int], frame: Frame, budgeted: bool) -> int:
     """The samples per pixel to render: `spp`, else the scene's; with a time or noise budget
     (`budgeted`) the count is only a cap, BUDGET_SAMPLE_CAP unless `spp` says."""

@@ -46,11 +46,13 @@ MAX_PLACEMENTS = 5_000_000
 # the interpreter's and the kernels' own).
 MEMORY_SHARE = 0.75
 # Bytes per unit, with the working copies the renderer makes: the film holds sums and sums of
-# squares of float64 RGB, then the mean, its 8-bit form and the noise estimate's temporaries;
+# squares of float64 RGB, the sums of its 8 batches (renderer.config.BATCHES), its peak sample, a
+# count and a flag (renderer.film.PixelSums), then the mean, its 8-bit form and the noise
+# estimate's temporaries (four RGB images: it reads the batches in place);
 # a texture is decoded (up to 8 bytes a pixel), converted to 8-bit RGB, then to float32 texels
 # that are copied once more when all images are joined; a placement and a primitive are Python
 # rows while flattening, then numpy rows and tree nodes.
-FILM_BYTES_PER_PIXEL = 6 * 3 * 8
+FILM_BYTES_PER_PIXEL = (2 + 8 + 1) * 3 * 8 + 8 + 1 + 4 * 3 * 8
 TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
 # A float image (.exr, .pfm): the file's bytes (at most 12 a pixel uncompressed), the decoded
 # float32 pixels, a contiguous copy, and the joined texels.

@@ -169,6 +169,12 @@ class Image(StrictModel):
         "weighs them against the path's own hits (multiple importance sampling, with Russian roulette past a few "
         "bounces); path is the books' estimator, which finds a light only by chance.",
     )
+    sampler: Literal["independent", "sobol"] = Field(
+        "independent",
+        description="Where the samples fall: independent draws a fresh random number for every sample and "
+        "dimension (the books'); sobol uses Owen-scrambled Sobol points, spread more evenly, in independently "
+        "scrambled batches so that the reported error stays honest.",
+    )
 
     @field_validator("aspect_ratio", mode="before")
     @classmethod

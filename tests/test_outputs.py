@@ -137,7 +137,7 @@ def test_a_width_whose_film_this_machine_cannot_hold_is_refused_before_rendering
     monkeypatch.setattr(bounds, "physical_memory", lambda: 16 << 30)
     result = runner.invoke(app, render_args(tmp_path, "--width", "32768"))
     assert result.exit_code == 1, result.output
-    assert "image.width: rendering this scene needs about 144.0 GiB (film 144.0 GiB), more than the 12.0 GiB allowed" in result.output
+    assert "image.width: rendering this scene needs about 369.0 GiB (film 369.0 GiB), more than the 12.0 GiB allowed" in result.output
 
 
 def test_error_lines_escape_control_characters(tmp_path, capsys):
@@ -152,7 +152,7 @@ def test_validate_reports_the_memory_a_render_needs(tmp_path):
     scene.write_text(SMALL.replace("width: 4", "width: 1000"))
     result = runner.invoke(app, ["validate", str(scene)])
     assert result.exit_code == 0, result.output
-    assert "  memory: about 137.3 MiB (film 137.3 MiB); at most " in result.stdout
+    assert "  memory: about 351.9 MiB (film 351.9 MiB); at most " in result.stdout
 
 
 def test_hdr_is_written_as_openexr_and_exposure_changes_the_png_only(tmp_path):

@@ -103,12 +103,15 @@ def whole_image(small, samples):
     """Today's pass: the general kernel over every row at once, all samples in one call."""
     from renderer.tracing.integrator import render_pass
 
+    from renderer.film import Film
+    from renderer.sampling import uniform_sampling
+
     flat, frame, _ = small
-    total, total_sq = np.zeros((frame.height, frame.width, 3)), np.zeros((frame.height, frame.width, 3))
+    film = Film.empty(frame.width, frame.height)
     rays, bad = np.zeros(frame.height, np.int64), np.zeros(frame.height, np.int64)
-    render_pass(flat, frame.width, frame.height, frame.seed, 0, samples, frame.max_depth, frame.estimator, total, total_sq,
-                rays, bad, 0, frame.height)
-    return total, total_sq, int(rays.sum())
+    render_pass(flat, frame.width, frame.height, frame.seed, 0, samples, frame.max_depth, frame.estimator, uniform_sampling(),
+                film.sums, rays, bad, 0, frame.height)
+    return film.total, film.total_sq, int(rays.sum())
 
 
 @pytest.mark.slow

@@ -3,12 +3,20 @@
 Every random number of a path is a pure function of where it is used, so an image does not
 depend on thread scheduling or traversal order, and a render can be continued with more
 samples exactly. The mixer is SplitMix64's finaliser (Steele, Lea and Flood 2014).
+
+A path's key is a pair of uint64 `(hash, index)`. With the independent sampler `index` is
+INDEPENDENT and every number is a hash of `hash` and the dimension. With the Sobol sampler
+`hash` names the pixel's batch (`sample % BATCHES`: each batch is its own independently
+scrambled sequence) and `index` is the point's place in it (`sample // BATCHES`).
 """
 
 import numpy as np
 
 from .. import target
+from ..config import BATCHES
+from ..sampling import SAMPLER_SOBOL
 from ..target import uint64
+from .sobol import sobol_uniform
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -45,18 +53,47 @@ def mix64(z):
     return z ^ (z >> uint64(31))
 
 
+# The `index` of an independent sampler's key: no point of a sequence.
+INDEPENDENT = np.uint64(0xFFFFFFFFFFFFFFFF)
+# Mixed into a batch's hash so that a Sobol batch's scramble never equals an independent path's key.
+_SOBOL_SALT = np.uint64(0x5851F42D4C957F2D)
+
+
 @target.device_noinline
-def path_key(seed, pixel, sample):
-    """The key of one path: a hash of the seed, the pixel index and the sample index."""
+def path_hash(seed, pixel, sample):
+    """A hash of the seed, the pixel index and the sample index."""
     k = mix64(uint64(seed) + _GOLDEN)
     k = mix64(k ^ (uint64(pixel) + _GOLDEN * uint64(2)))
     return mix64(k ^ (uint64(sample) + _GOLDEN * uint64(3)))
 
 
 @target.device
+def path_key(seed, pixel, sample):
+    """The independent sampler's key of one path."""
+    return (path_hash(seed, pixel, sample), INDEPENDENT)
+
+
+@target.device
+def independent_key(value):
+    """An independent sampler's key from one number (probes and tests)."""
+    return (uint64(value), INDEPENDENT)
+
+
+@target.device
+def sample_key(seed, pixel, sample, sampler):
+    """The key of sample `sample` of pixel `pixel` for `sampler` (sampling.SAMPLERS)."""
+    if sampler == SAMPLER_SOBOL:
+        batch = uint64(sample) % uint64(BATCHES)
+        return (mix64(path_hash(seed, pixel, batch) ^ _SOBOL_SALT), uint64(sample) // uint64(BATCHES))
+    return path_key(seed, pixel, sample)
+
+
+@target.device
 def uniform(key, dim):
     """A number in [0, 1) for dimension `dim` of the path with `key`."""
-    return float(mix64(uint64(key) + uint64(dim) * _GOLDEN) >> uint64(11)) * _INV53
+    if key[1] == INDEPENDENT:
+        return float(mix64(key[0] + uint64(dim) * _GOLDEN) >> uint64(11)) * _INV53
+    return sobol_uniform(key[0], key[1], uint64(dim))
 
 
 @target.device

@@ -10,7 +10,10 @@ from ..kernel_flags import INSTANCES, SURFACE_MAPS
 from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
-from ..numerics.rng import bounce_dim, light_dim, path_key, uniform
+from ..adaptive import pixel_converged
+from ..config import BATCHES
+from ..film_sums import add_sample
+from ..numerics.rng import bounce_dim, light_dim, sample_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
@@ -184,29 +187,36 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
 
 
 @target.device
-def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row, col,
+def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row, col,
                       stack, tstack):
-    """Add the samples sample_start.. of pixel (i, j) into total[row, col] and total_sq[row, col]
-    (the film's own pixel, or a tile's); the rays cast and the samples left out as not finite.
-    Each pixel's sums grow in sample order wherever they are kept, so a tile of the image adds
-    up to the same bits as the whole image."""
+    """Add the samples sample_start.. of pixel (i, j) into the sums at [row, col] of `sums`
+    (film.PixelSums: the film's own pixel, or a tile's); the rays cast and the samples left out
+    as not finite. Each pixel's sums grow in sample order wherever they are kept, so a tile of
+    the image adds up to the same bits as the whole image.
+
+    A pixel that adaptive sampling has stopped (`done`) takes no samples; at the end of each
+    round of BATCHES samples, `adaptive.pixel_converged` may stop it. The rule reads only the
+    pixel's own sums, so where a pass or a tile ends never changes the image."""
+    if sums.done[row, col] != 0:
+        return 0, 0
     pixel = j * width + i
     rays = 0
     bad = 0
+    adaptive = sampling.threshold > 0.0
     for s in range(sample_start, sample_start + sample_count):
-        key = path_key(seed, pixel, s)
+        key = sample_key(seed, pixel, s, sampling.sampler)
         o, d, time = camera_ray(S.camera, i, j, key)
         r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
         rays += n
-        if not (math.isfinite(r) and math.isfinite(g) and math.isfinite(b)):
+        sums.counts[row, col] = s + 1
+        if math.isfinite(r) and math.isfinite(g) and math.isfinite(b):
+            add_sample(sums, row, col, s % BATCHES, r, g, b)
+        else:
             bad += 1  # counted and reported, never added to the image
-            continue
-        total[row, col, 0] += r
-        total[row, col, 1] += g
-        total[row, col, 2] += b
-        total_sq[row, col, 0] += r * r
-        total_sq[row, col, 1] += g * g
-        total_sq[row, col, 2] += b * b
+        if adaptive and (s + 1) % BATCHES == 0 and s + 1 >= sampling.floor:
+            if pixel_converged(sums, row, col, s + 1, sampling):
+                sums.done[row, col] = 1
+                break
     return rays, bad
 
 
@@ -226,22 +236,23 @@ def row_stride(height):
     return stride
 
 
-def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad,
+def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
                 band_start, band_stop):
-    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums,
-    with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS), for the rows at
+    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums
+    (film.PixelSums), with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS)
+    and the sampler and stopping rule of `sampling` (sampling.Sampling), for the rows at
     positions band_start..band_stop of the pass's row order (`row_stride`); 0..height is the
     whole image. A long pass is rendered as several such bands, so that a render can stop
     between them; each pixel's sums are the same however the rows are banded.
 
     Allocates each render thread's traversal stacks and launches `render_band` on them."""
     scratch = traversal_scratch(target.thread_count())
-    target.launch(render_band, S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq,
+    target.launch(render_band, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
                   row_rays, row_bad, band_start, band_stop, scratch)
 
 
 @target.parallel_kernel
-def render_band(S, width, height, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad,
+def render_band(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
                 band_start, band_stop, scratch):
     """`render_pass` on threads: thread k traverses with row k of `scratch`
     (traverse.traversal_scratch), so the parallel loop allocates nothing."""
@@ -256,7 +267,7 @@ def render_band(S, width, height, seed, sample_start, sample_count, max_depth, i
         bad = 0
         for i in range(width):
             n, nbad = add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator,
-                                        total, total_sq, j, i, stack, tstack)
+                                        sampling, sums, j, i, stack, tstack)
             rays += n
             bad += nbad
         row_rays[j] += rays

@@ -6,6 +6,7 @@ import numpy as np
 
 from .. import target
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
+from ..numerics.rng import independent_key
 from ..numerics.vec import unit, xform_normal, xform_point, xform_vector
 from ..shapes import MEDIUM, PRIM_KIND
 from ..shapes.dispatch import surface
@@ -28,7 +29,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
     uv_out = np.zeros((n, 2))
     stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
     tstack = np.empty((BVH_STACK, 2))
-    key = np.uint64(12345)
+    key = independent_key(12345)
     for k in range(n):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
@@ -73,7 +74,7 @@ def closest_hits_on_threads(S, origins, dirs, time, tmin, scratch):
     t_out = np.full(n, np.inf)
     prim_out = np.full(n, -1, np.int64)
     inst_out = np.full(n, -1, np.int64)
-    key = np.uint64(12345)
+    key = independent_key(12345)
     n_chunks = (n + CLOSEST_HITS_CHUNK - 1) // CLOSEST_HITS_CHUNK
     stacks_t, stacks_i, deferred, tstacks = scratch
     for c in target.prange(n_chunks):

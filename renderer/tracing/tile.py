@@ -18,11 +18,12 @@ from .integrator import add_pixel_samples
 
 
 @target.kernel
-def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, total, total_sq, row_rays, row_bad):
-    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the sums of the
-    tile whose top left pixel is (x0, y0) in an image `width` pixels wide; the tile's size is
-    that of `total` (rows, columns, 3). `row_rays` and `row_bad` count per row of the tile."""
-    tile_h, tile_w = total.shape[0], total.shape[1]
+def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad):
+    """Add `sample_count` samples per pixel, numbered from `sample_start`, into the sums
+    (film.PixelSums) of the tile whose top left pixel is (x0, y0) in an image `width` pixels
+    wide; the tile's size is that of `sums.total` (rows, columns, 3). `row_rays` and `row_bad`
+    count per row of the tile."""
+    tile_h, tile_w = sums.total.shape[0], sums.total.shape[1]
     stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
     tstack = np.empty((BVH_STACK, 2))
     for k in range(tile_h):
@@ -31,7 +32,7 @@ def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, i
         bad = 0
         for t in range(tile_w):
             n, nbad = add_pixel_samples(S, x0 + t, j, width, seed, sample_start, sample_count, max_depth, integrator,
-                                        total, total_sq, k, t, stack, tstack)
+                                        sampling, sums, k, t, stack, tstack)
             rays += n
             bad += nbad
         row_rays[k] += rays

@@ -231,10 +231,13 @@ def _flat():
 
 
 def _film_of_pass(kernels, flat, band=(0, 8)):
-    total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
+    from renderer.film import Film
+    from renderer.sampling import uniform_sampling
+
+    film = Film.empty(12, 8)
     rays, bad = np.zeros(8, np.int64), np.zeros(8, np.int64)
-    kernels.render_pass(flat, 12, 8, 3, 0, 4, 6, 1, total, total_sq, rays, bad, *band)
-    return total, total_sq, rays
+    kernels.render_pass(flat, 12, 8, 3, 0, 4, 6, 1, uniform_sampling(), film.sums, rays, bad, *band)
+    return film.total, film.total_sq, rays, film
 
 
 @pytest.mark.slow
@@ -252,7 +255,7 @@ def test_per_thread_scratch_gives_the_same_film_on_any_number_of_threads():
     finally:
         target.set_thread_count(before)
     assert films[0][0].sum() > 0
-    for total, total_sq, rays in films[1:]:
+    for total, total_sq, rays, _ in films[1:]:
         assert np.array_equal(total, films[0][0]) and np.array_equal(total_sq, films[0][1])
         assert np.array_equal(rays, films[0][2])
 
@@ -273,10 +276,16 @@ def test_a_specialised_kernel_set_renders_the_general_kernels_film_and_its_tiles
     assert numba.config.CACHE_DIR == folder
     assert general[0].sum() > 0
     assert np.array_equal(general[0], special[0]) and np.array_equal(general[1], special[1])
-    # The same samples as two tiles of the cluster's kernel.
-    total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
+    # The same samples as two tiles of the cluster's kernel: every array of the film, bit for bit.
+    from renderer.film import Film
+    from renderer.sampling import uniform_sampling
+
+    film = Film.empty(12, 8)
     for x0, width in ((0, 5), (5, 7)):
-        t, tsq = np.zeros((8, width, 3)), np.zeros((8, width, 3))
-        kernel_set(needed).render_tile(flat, 12, x0, 0, 3, 0, 4, 6, 1, t, tsq, np.zeros(8, np.int64), np.zeros(8, np.int64))
-        total[:, x0:x0 + width], total_sq[:, x0:x0 + width] = t, tsq
-    assert np.array_equal(total, general[0]) and np.array_equal(total_sq, general[1])
+        tile = Film.empty(width, 8)
+        kernel_set(needed).render_tile(flat, 12, x0, 0, 3, 0, 4, 6, 1, uniform_sampling(), tile.sums, np.zeros(8, np.int64),
+                                       np.zeros(8, np.int64))
+        for whole, part in zip(film.sums, tile.sums):
+            whole[:, x0:x0 + width] = part
+    for whole, passed in zip(film.sums, general[3].sums):
+        assert np.array_equal(whole, passed)

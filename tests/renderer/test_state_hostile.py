@@ -16,8 +16,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from renderer.film import Film
 from renderer import state
+from renderer.config import BATCHES
+from renderer.film import Film
 from renderer.state import STATE_VERSION, RenderKey, load_state, save_state
 
 KEY = RenderKey("ab" * 32, 4, 3, 5, 7)
@@ -32,6 +33,10 @@ def state_bytes(total=None, total_sq=None, meta=None, compressed=False, extra=No
     arrays = {
         "total": np.full(shape, 0.5) if total is None else total,
         "total_sq": np.full(shape, 0.25) if total_sq is None else total_sq,
+        "batch": np.zeros((KEY.height, KEY.width, BATCHES, 3)),
+        "peak": np.zeros(shape),
+        "counts": np.full(shape[:2], 2, np.int64),
+        "done": np.zeros(shape[:2], np.uint8),
         "meta": np.array(meta_of() if meta is None else meta),
     }
     arrays.update(extra or {})

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 from renderer.compile import compile_scene, with_width
+from renderer.film import Film
 from renderer.render import render
+from renderer.sampling import uniform_sampling
 from renderer.variants import GENERAL, KernelFeatures, _variant_cache_dir, features_of, is_compiled, kernel_set
 from scenefmt.effects import summarize
 from scenefmt.validation import load, loads
@@ -166,10 +168,10 @@ def test_a_path_left_out_is_really_gone():
     no_media = replace(features_of(graph_of("media")), media=False)
     images = {}
     for name, feats in (("without", no_media), ("with", GENERAL)):
-        total, total_sq = np.zeros((8, 12, 3)), np.zeros((8, 12, 3))
+        film = Film.empty(12, 8)
         rays, bad = np.zeros(8, np.int64), np.zeros(8, np.int64)
-        kernel_set(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, 1, total, total_sq, rays, bad, 0, 8)
-        images[name] = total
+        kernel_set(feats).render_pass(flat, 12, 8, 1, 0, 4, 6, 1, uniform_sampling(), film.sums, rays, bad, 0, 8)
+        images[name] = film.total
     assert not np.array_equal(images["without"], images["with"])
 
 

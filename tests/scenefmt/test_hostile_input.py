@@ -293,7 +293,7 @@ def test_a_film_too_large_for_this_machine_is_refused_with_the_limit(monkeypatch
     monkeypatch.setattr(bounds, "physical_memory", lambda: 16 << 30)
     diag = only("image: {width: 32768, aspect_ratio: 1}\n")
     assert diag.path == ("image", "width")
-    assert "needs about 144.0 GiB (film 144.0 GiB), more than the 12.0 GiB allowed on this machine (75% of its 16.0 GiB" in diag.message
+    assert "needs about 369.0 GiB (film 369.0 GiB), more than the 12.0 GiB allowed on this machine (75% of its 16.0 GiB" in diag.message
     # The same scene at a width this machine can hold is valid, and says what it needs.
     assert loads("image: {width: 4096, aspect_ratio: 1}\n").graph.memory.film == 4096 * 4096 * bounds.FILM_BYTES_PER_PIXEL
 
@@ -323,7 +323,7 @@ def test_an_image_texture_whose_header_promises_169_megapixels_is_refused(tmp_pa
         load(scene)
     (diag,) = excinfo.value.diagnostics
     assert diag.path == ("textures", "t", "file")
-    assert "needs about 5.5 GiB (film 1.4 MiB, textures 5.5 GiB), more than the 3.0 GiB allowed on this machine" in diag.message
+    assert "needs about 5.5 GiB (film 3.5 MiB, textures 5.5 GiB), more than the 3.0 GiB allowed on this machine" in diag.message
 
 
 def test_instanced_emitters_count_in_the_memory_estimate():

@@ -57,8 +57,7 @@ def test_values_are_set_by_key_path(scene):
 
 def test_a_bad_value_is_reported_in_its_argument(scene):
     assert errors(scene, "image.width=100.5", "materials.ground.albedo=[2, 0, 0]", "image.sampels=3") == [
-        "--set image.sampels=3:1:1: error: image.sampels: unknown key 'sampels'; expected one of: width, height, "
-        "aspect_ratio, samples_per_pixel, max_depth, seed, integrator",
+        "--set image.sampels=3:1:1: error: image.sampels: unknown key 'sampels'; did you mean 'sampler'?",
         "--set image.width=100.5:1:13: error: image.width: expected a valid integer, found 100.5",
         "--set materials.ground.albedo=[2, 0, 0]:1:25: error: materials.ground.albedo: a reflectance (albedo) must be at "
         "most 1 per channel, found 2",

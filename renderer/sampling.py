@@ -1,0 +1,27 @@
+"""How a render draws its samples: the sampler, and adaptive sampling's stopping rule (numpy only).
+
+The kernels take a `Sampling` with every render pass and tile (tracing/integrator.py, tile.py).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+# The samplers (`image.sampler` in a scene file, `--sampler` on the command line), as the kernels take them.
+SAMPLER_INDEPENDENT = 0  # a fresh hashed number for every (seed, pixel, sample, dimension): the books'
+SAMPLER_SOBOL = 1  # Owen-scrambled Sobol points, one independent scramble per batch (numerics/sobol.py)
+SAMPLERS = {"independent": SAMPLER_INDEPENDENT, "sobol": SAMPLER_SOBOL}
+
+
+class Sampling(NamedTuple):
+    """What the kernels need to know about drawing samples."""
+
+    sampler: int  # a value of SAMPLERS
+    threshold: float = 0.0  # adaptive: a pixel stops once its error is below this (radiance); 0: never stops
+    floor: int = 0  # adaptive: samples a pixel takes before it may stop (a multiple of config.BATCHES)
+    tail: float = 1.0  # adaptive: a pixel whose largest sample holds more than this share of its squares goes on
+
+
+def uniform_sampling(sampler: str = "independent") -> Sampling:
+    """Every pixel takes every sample: no adaptive stopping."""
+    return Sampling(SAMPLERS[sampler])

@@ -7,7 +7,9 @@ passes when the interval holds the TRUE error, measured against the scene's conv
 (tests/renderer/converged/, made by tests/renderer/converged.py, with the reference's own variance
 taken out), or when the warning fires. The trials are independent (each its own seed), so with a
 correct interval the misses are binomial with p = 1 - confidence: the test fails when there are more
-than that distribution's 95% bound allows.
+than that distribution's 95% bound allows, over all trials, and over the 16 spp trials of sky_spheres
+and caustic_glass alone (the rate must hold where rare bright paths make it hard, not only in a total
+padded by the easy scenes).
 
 A warning is not free: one that fired on every render would pass any interval. So the warning may
 fire on at most MAX_WARNED of the trials (the scenes lit through rare bright paths, sky_spheres,
@@ -35,12 +37,15 @@ from tests.renderer.converged import load_reference, reference_path, scene_files
 # REPORTED_TRIALS), so the page's table shows these trials among its own.
 TRIALS = ((16, 6), (64, 3), (256, 1))
 MAX_WARNED = 0.25
+# Where the issue saw the report at half the truth with no warning (sky_spheres at 16 spp), and a
+# caustic: checked on their own at 16 spp as well as in the total.
+HARD_SCENES = ("sky_spheres", "caustic_glass")
 BOUND_LEVEL = 0.95
 
 pytestmark = pytest.mark.slow
 
 
-@dataclass
+@dataclass(eq=False)
 class Trial:
     scene: str
     spp: int
@@ -144,11 +149,12 @@ def test_reported_interval_covers_the_true_error_or_warns(trials):
     problems, missed, warned, confidence = coverage_failures(trials, reported)
     assert not problems, "\n".join(problems)
     # The scenes lit through rare bright paths are where an estimate from the samples fails first:
-    # at 16 spp their trials must pass (covered or warned) one by one, not only in the total.
-    for scene in ("sky_spheres", "caustic_glass"):
-        bad = [t for t in missed if t.scene == scene and t.spp == 16]
-        assert not bad, f"{scene} at 16 spp: the interval misses the true error without a warning on seeds " \
-                        f"{[t.seed for t in bad]}"
+    # at 16 spp the stated rate must hold on them too, not only in a total padded by the easy scenes.
+    hard = [t for t in trials if t.scene in HARD_SCENES and t.spp == 16]
+    bad = [t for t in missed if t.scene in HARD_SCENES and t.spp == 16]
+    assert len(bad) <= allowed_misses(len(hard), 1.0 - confidence), \
+        f"{len(bad)} of the {len(hard)} renders of {' and '.join(HARD_SCENES)} at 16 spp miss the true error " \
+        "without a warning: " + ", ".join(f"{t.scene} seed {t.seed}: true {t.truth:.3f}" for t in bad)
 
 
 def test_the_check_rejects_todays_estimate(trials):

@@ -22,6 +22,7 @@ from typing import Callable, Optional
 from .executor import ExecutorFailed, KernelTime, Plan
 from .error_estimate import VarianceTrend
 from .film import Film, estimate_noise, relative_noise
+from .rare_paths import RarePathPrior, image_mean
 from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
 
 # Below this many samples per pixel the noise estimate is not trusted to stop a render on.
@@ -142,7 +143,7 @@ class NoiseTarget:
 
 def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
                     noise_target: Optional[float], last_noise: float, trend: Optional[VarianceTrend] = None,
-                    target: Optional[NoiseTarget] = None) -> tuple[bool, float]:
+                    target: Optional[NoiseTarget] = None, prior: Optional[RarePathPrior] = None) -> tuple[bool, float]:
     """After samples were added to `film`: refresh the noise estimate where it is needed, show
     progress, and say whether the noise target is reached; also the time of the last estimate.
 
@@ -160,7 +161,7 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
         last_noise = now
         if trend is not None:
             trend.add(film.samples, stats.noise)
-            stats.noise_warning = trend.warning()
+            stats.noise_warning = trust_warning(film, trend, prior)
     if progress is not None:
         progress(stats)
     if noise_target is None or film.samples < MIN_SAMPLES_FOR_NOISE:
@@ -168,6 +169,15 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
     if target is not None:
         return target.reached(film, stats, now), last_noise
     return stats.noise <= noise_target, last_noise
+
+
+def trust_warning(film: Film, trend: Optional[VarianceTrend], prior: Optional[RarePathPrior]) -> Optional[str]:
+    """Why the error estimate of `film` cannot be trusted, from the render's history (the trend of
+    the spread per sample) or from the scene (the rare-path prior, below the samples it needs)."""
+    found = trend.warning() if trend is not None else None
+    if found is None and prior is not None:
+        found = prior.warning(image_mean(film), film.samples)
+    return found
 
 
 class RenderClock:
@@ -199,6 +209,7 @@ def render_progressively(
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
     notify: Optional[Callable[[str], None]] = None,
+    prior: Optional[RarePathPrior] = None,
 ) -> RenderResult:
     """Render into `film` (empty, or an earlier render's with the same seed) with `executor` until
     it holds `target` samples per pixel: the progressive loop of every front end.
@@ -215,7 +226,9 @@ def render_progressively(
     one when the rest of the render, as forecast from the speed and noise measured so far
     (`variants.seconds_left`), is long enough to repay the compile (`variants.worth_specialising`).
     `notify` receives a line before a compile or a switch. Time spent getting kernels ready is never
-    counted as rendering time (`stats.seconds`, the time budget).
+    counted as rendering time (`stats.seconds`, the time budget). `prior` (rare_paths.rare_path_prior
+    of the scene) says when the scene itself makes the estimate untrustworthy: it goes to
+    `stats.noise_warning` with the trend's warnings, and a noise target does not stop while it holds.
     """
     chosen, may_switch = choose_kernel(needed, kernel, features)
     may_switch = may_switch and executor.can_switch_kernel
@@ -253,7 +266,8 @@ def render_progressively(
                 stats.seconds = clock()
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
-                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise)
+                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise,
+                                                      prior)
                 if reached:
                     stats.stop_reason = "noise"
                     break
@@ -278,4 +292,6 @@ def render_progressively(
         executor.close()
     stats.seconds = clock()
     stats.noise = relative_noise(film)
+    if film.samples:
+        stats.noise_warning = stats.noise_warning or trust_warning(film, None, prior)
     return RenderResult(film, stats)

@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass
 from typing import Optional
 
-import numpy as np
 import pytest
 
 from tests.renderer.converged import load_reference, reference_path, scene_files, small_graph, true_error
@@ -52,6 +51,10 @@ class Trial:
     seed: int
     truth: float
     film: object
+    # What the render itself said about its estimate's trust (RenderStats.noise_warning: the trend of the
+    # spread per sample, the rare-path prior of the scene), as `rt render` and rt.render show it beside
+    # the estimate's own warning.
+    render_warning: Optional[str] = None
 
 
 def trial_seed(spp: int, index: int) -> int:
@@ -73,8 +76,9 @@ def trials() -> list[Trial]:
         for spp, seeds in TRIALS:
             for index in range(seeds):
                 seed = trial_seed(spp, index)
-                film = render(graph, flat=flat, samples=spp, seed=seed, kernel="general").film
-                out.append(Trial(path.stem, spp, seed, true_error(film.mean(), reference), film))
+                result = render(graph, flat=flat, samples=spp, seed=seed, kernel="general")
+                film = result.film
+                out.append(Trial(path.stem, spp, seed, true_error(film.mean(), reference), film, result.stats.noise_warning))
     return out
 
 
@@ -86,23 +90,24 @@ class Reported:
     confidence: float
 
 
-def reported(film) -> Reported:
-    """What rt reports about a film's error (issue 32's NoiseEstimate fields)."""
+def reported(trial: Trial) -> Reported:
+    """What rt reports about a render's error (issue 32's NoiseEstimate fields, and the render's own warning)."""
     from renderer.film import estimate_noise
 
-    estimate = estimate_noise(film)
+    estimate = estimate_noise(trial.film)
     missing = [name for name in ("low", "high", "warning", "confidence") if not hasattr(estimate, name)]
     if missing:
         pytest.fail(f"estimate_noise(film) reports no {', '.join(missing)}: the error interval and warning "
                     "of issue 32 (renderer/film.py, the statistics helper's part) are not there yet")
-    return Reported(float(estimate.low), float(estimate.high), estimate.warning, float(estimate.confidence))
+    return Reported(float(estimate.low), float(estimate.high), estimate.warning or trial.render_warning,
+                    float(estimate.confidence))
 
 
-def todays_estimate(film) -> Reported:
+def todays_estimate(trial: Trial) -> Reported:
     """The estimate rt reported before issue 32, given a generous band as if it were an interval."""
-    from renderer.film import estimate_noise
+    from renderer.film import relative_noise
 
-    figure = estimate_noise(film).relative_rms
+    figure = relative_noise(trial.film)  # the samples' own spread, as rt reported it before issue 32
     return Reported(0.8 * figure, 1.25 * figure, None, 0.95)
 
 
@@ -122,7 +127,7 @@ def coverage_failures(trials: list[Trial], report) -> tuple[list[str], list[Tria
     missed, warned, problems = [], [], []
     confidence = None
     for trial in trials:
-        r = report(trial.film)
+        r = report(trial)
         confidence = r.confidence
         for value in (r.low, r.high):
             if not math.isfinite(value):
@@ -135,7 +140,7 @@ def coverage_failures(trials: list[Trial], report) -> tuple[list[str], list[Tria
     bound = allowed_misses(n, 1.0 - confidence)
     if len(missed) > bound:
         lines = [f"{t.scene} at {t.spp} spp (seed {t.seed}): true {t.truth:.4f} outside "
-                 f"[{report(t.film).low:.4f}, {report(t.film).high:.4f}]" for t in missed[:12]]
+                 f"[{report(t).low:.4f}, {report(t).high:.4f}]" for t in missed[:12]]
         problems.append(f"{len(missed)} of {n} intervals miss the true error without a warning, more than the "
                         f"{bound} a {confidence:.0%} interval allows (binomial bound at {BOUND_LEVEL:.0%}):\n  "
                         + "\n  ".join(lines))

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Callable, Optional
 from .film import Film
 from .flat import FlatScene, Frame
 from .local_passes import PASS_SECONDS, Bands, LocalPasses
+from .rare_paths import rare_path_prior
 from .session import RenderResult, RenderStats, render_progressively
 from .variants import GENERAL, KernelFeatures, features_of
 
@@ -69,4 +70,4 @@ def render_flat(
     target = samples if samples is not None else frame.samples
     return render_progressively(executor, film, target=target, needed=needed, kernel=kernel, features=features,
                                 progress=progress, should_stop=should_stop, time_budget=time_budget,
-                                noise_target=noise_target, notify=notify)
+                                noise_target=noise_target, notify=notify, prior=rare_path_prior(flat))

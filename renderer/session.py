@@ -23,6 +23,7 @@ from .executor import ExecutorFailed, KernelTime, Plan
 from .error_estimate import VarianceTrend
 from .film import Film, estimate_noise, relative_noise
 from .forecast import ForecastTracker
+from .rare_paths import RarePathPrior, image_mean
 from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
 
 # Below this many samples per pixel the noise estimate is not trusted to stop a render on.
@@ -146,8 +147,8 @@ class NoiseTarget:
 
 def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
                     noise_target: Optional[float], last_noise: float, trend: Optional[VarianceTrend] = None,
-                    target: Optional[NoiseTarget] = None, tracker: Optional[ForecastTracker] = None,
-                    step=None) -> tuple[bool, float]:
+                    target: Optional[NoiseTarget] = None, prior: Optional[RarePathPrior] = None,
+                    tracker: Optional[ForecastTracker] = None, step=None) -> tuple[bool, float]:
     """After samples were added to `film` (by `step`): refresh the noise estimate where it is
     needed, the forecast (`tracker`) where there is one, show progress, and say whether the noise
     target is reached; also the time of the last estimate.
@@ -167,7 +168,7 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
         last_noise = now
         if trend is not None:
             trend.add(film.samples, stats.noise)
-            stats.noise_warning = trend.warning()
+            stats.noise_warning = trust_warning(film, trend, prior)
     if tracker is not None and step is not None:
         stats.forecast = tracker.update(film, stats.seconds, step.samples, step.seconds)
     if progress is not None:
@@ -177,6 +178,15 @@ def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[
     if target is not None:
         return target.reached(film, stats, now), last_noise
     return stats.noise <= noise_target, last_noise
+
+
+def trust_warning(film: Film, trend: Optional[VarianceTrend], prior: Optional[RarePathPrior]) -> Optional[str]:
+    """Why the error estimate of `film` cannot be trusted, from the render's history (the trend of
+    the spread per sample) or from the scene (the rare-path prior, below the samples it needs)."""
+    found = trend.warning() if trend is not None else None
+    if found is None and prior is not None:
+        found = prior.warning(image_mean(film), film.samples)
+    return found
 
 
 class RenderClock:
@@ -208,6 +218,7 @@ def render_progressively(
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
     notify: Optional[Callable[[str], None]] = None,
+    prior: Optional[RarePathPrior] = None,
 ) -> RenderResult:
     """Render into `film` (empty, or an earlier render's with the same seed) with `executor` until
     it holds `target` samples per pixel: the progressive loop of every front end.
@@ -225,7 +236,9 @@ def render_progressively(
     left (`variants.seconds_left`), or with a noise target from the pilot's forecast
     (`forecast.ForecastTracker`, `stats.forecast`), is long enough to repay the compile (`variants.worth_specialising`).
     `notify` receives a line before a compile or a switch. Time spent getting kernels ready is never
-    counted as rendering time (`stats.seconds`, the time budget).
+    counted as rendering time (`stats.seconds`, the time budget). `prior` (rare_paths.rare_path_prior
+    of the scene) says when the scene itself makes the estimate untrustworthy: it goes to
+    `stats.noise_warning` with the trend's warnings, and a noise target does not stop while it holds.
     """
     chosen, may_switch = choose_kernel(needed, kernel, features)
     may_switch = may_switch and executor.can_switch_kernel
@@ -268,7 +281,7 @@ def render_progressively(
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
                 reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise,
-                                                      tracker, step)
+                                                      prior, tracker, step)
                 if reached:
                     stats.stop_reason = "noise"
                     break
@@ -299,4 +312,6 @@ def render_progressively(
         executor.close()
     stats.seconds = clock()
     stats.noise = relative_noise(film)
+    if film.samples:
+        stats.noise_warning = stats.noise_warning or trust_warning(film, None, prior)
     return RenderResult(film, stats)

@@ -315,3 +315,17 @@ def texture_value(tex_i, tex_f, texels, noise_perm, noise_vec, t, u, v, p):
             value = turbulence(noise_perm, noise_vec, q, scale * p[0], scale * p[1], scale * p[2], octaves)
         return (tex_f[t, TEX_COLOR] * value, tex_f[t, TEX_COLOR + 1] * value, tex_f[t, TEX_COLOR + 2] * value)
     return (tex_f[t, TEX_COLOR], tex_f[t, TEX_COLOR + 1], tex_f[t, TEX_COLOR + 2])  # unreachable: the scene has no noise texture
+
+
+def texture_peak(tex_i: np.ndarray, tex_f: np.ndarray, texels: np.ndarray, row: int, depth: int = 0) -> float:
+    """An upper bound of the largest channel texture row `row` can return (numpy, at flattening
+    time): a solid colour's, a checker's brighter cell's, an image's colour times its brightest
+    texel (of all images: a bound, not the exact one), a noise texture's colour."""
+    kind = tex_i[row, TEX_KIND]
+    if kind == TEX_CHECKER and depth < 64:
+        return max(texture_peak(tex_i, tex_f, texels, int(tex_i[row, TEX_EVEN]), depth + 1),
+                   texture_peak(tex_i, tex_f, texels, int(tex_i[row, TEX_ODD]), depth + 1))
+    colour = float(np.max(tex_f[row, 0:3]))
+    if kind == TEX_IMAGE and texels.size:
+        return colour * float(np.max(texels))
+    return colour

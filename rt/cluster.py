@@ -430,8 +430,11 @@ def render_on_cluster(client, package: chunks.ScenePackage, flat, frame, *, feat
     from renderer.film import Film
     from renderer.session import render_progressively
 
+    from renderer.rare_paths import rare_path_prior
+
     executor = ClusterRounds.for_frame(client, package, flat, frame, seed=seed, max_depth=max_depth,
                                        chunk_seconds=chunk_seconds, warm_kernel=warm_kernel)
+    session_options.setdefault("prior", rare_path_prior(flat))
     return render_progressively(executor, film if film is not None else Film.empty(frame.width, frame.height),
                                 target=samples if samples is not None else frame.samples, needed=features, features=features,
                                 **session_options)

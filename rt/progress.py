@@ -72,8 +72,12 @@ class Progress:
         forecast = getattr(stats, "forecast", None)
         if forecast is not None and not self.forecast_said:
             self.forecast_said = True
-            self.notify(f"forecast: {forecast_sentence(forecast, self.noise)}, from a pilot of {stats.samples} samples "
-                        "per pixel; refined as the render goes")
+            said = (f"forecast: {forecast_sentence(forecast, self.noise)}, from a pilot of {stats.samples} samples "
+                    "per pixel; refined as the render goes")
+            warning = getattr(stats, "noise_warning", None)
+            if self.noise and warning and not forecast.warning:  # the render's own doubt (a trend, the scene's rare paths)
+                said += f" (but {warning.rstrip('.')}: the render does not stop on its noise while that holds)"
+            self.notify(said)
         line, frac = self.line(stats)
         if self.tty:
             self.show(line, stats)

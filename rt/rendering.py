@@ -98,6 +98,7 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
     from renderer import target as kernel_target
     from renderer.film import Film
     from renderer.local_passes import LocalPasses
+    from renderer.rare_paths import rare_path_prior
     from renderer.session import render_progressively
 
     from .progress import Progress
@@ -115,6 +116,7 @@ def render_scene(flat: FlatScene, frame: Frame, features: KernelFeatures, *, tar
         if film is None:
             film = Film.empty(frame.width, frame.height)
         result = render_progressively(executor, film, target=target, needed=features, kernel=kernel, progress=progress,
+                                      prior=rare_path_prior(flat),
                                       **options)
         if isinstance(progress, Progress):
             progress.finish(result.stats)

@@ -1,5 +1,7 @@
 """The material table: type codes, the two row layouts, and each material model's rows."""
 
+import numpy as np
+
 from scenefmt.materials import emits
 
 from ..columns import Column, Layout
@@ -134,3 +136,27 @@ def phase_function(texture: int) -> tuple[list, list]:
     return (MATERIAL_I.row(kind=ISOTROPIC, texture=texture, param_texture=[-1] * PARAMETER_SLOTS, normal_map=-1,
                            bump_map=-1, emission=-1),
             MATERIAL_F.row(fuzz=0.0, ior=1.0))
+
+
+# Below this width (a metal's fuzz, a microfacet lobe's alpha) a surface shows a small bright light
+# as a small bright highlight or carries it on as a caustic: only a path that happens to leave in
+# just the right direction finds it (the rare-path prior of renderer/rare_paths.py).
+SHARP_WIDTH = 0.1
+
+
+def sharp_rows(mat_i: np.ndarray, mat_f: np.ndarray) -> np.ndarray:
+    """Which material rows reflect or transmit sharply: glass of every kind, near-mirror metals and
+    microfacet lobes narrower than SHARP_WIDTH (a textured width counts as sharp: it may be).
+    Plastic's coat reflects a few per cent and is left out."""
+    kind = mat_i[:, MAT_KIND]
+    alpha = np.where(mat_i[:, MAT_PARAM_TEXTURE + SLOT_ALPHA_U] >= 0, 0.0, mat_f[:, MAT_PARAM + SLOT_ALPHA_U])
+    return ((kind == DIELECTRIC) | (kind == THIN_DIELECTRIC) | ((kind == METAL) & (mat_f[:, MAT_FUZZ] < SHARP_WIDTH))
+            | (((kind == CONDUCTOR) | (kind == ROUGH_DIELECTRIC) | (kind == PRINCIPLED)) & (alpha < SHARP_WIDTH)))
+
+
+def emission_rows(mat_i: np.ndarray, mat_f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(texture row, factor) of what each material row emits, as the kernels' `emission_source`
+    reads it (meaningful for the rows that emit)."""
+    principled = (mat_i[:, MAT_KIND] == PRINCIPLED) & (mat_i[:, MAT_EMISSION] >= 0)
+    rows = np.where(principled, mat_i[:, MAT_EMISSION], mat_i[:, MAT_TEXTURE])
+    return rows, np.where(principled, mat_f[:, MAT_EMISSION_STRENGTH], 1.0)

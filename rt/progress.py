@@ -29,7 +29,7 @@ def percent(noise: float) -> str:
     return f"{value:.2g}%" if value < 10 else f"{value:.0f}%"
 
 
-def forecast_sentence(forecast, noise_target=None) -> str:
+def forecast_sentence(forecast, noise_target=None, with_warning: bool = True) -> str:
     """What a forecast (renderer.forecast.Forecast) says, in one line: the time to a noise target
     with its range, or the noise a budget of time or samples ends at with its range."""
     times = f"({spoken_seconds(forecast.seconds_low)} to {spoken_seconds(forecast.seconds_high)}, 95% range)"
@@ -44,7 +44,7 @@ def forecast_sentence(forecast, noise_target=None) -> str:
             line += f" {times}"
         if noise_target is not None:
             line += f": the sample cap comes before the {percent(noise_target)} target"
-    if forecast.warning:
+    if forecast.warning and with_warning:
         line += f"; {forecast.warning.rstrip('.')}, so it may take longer"
     return line
 
@@ -72,11 +72,13 @@ class Progress:
         forecast = getattr(stats, "forecast", None)
         if forecast is not None and not self.forecast_said:
             self.forecast_said = True
-            said = (f"forecast: {forecast_sentence(forecast, self.noise)}, from a pilot of {stats.samples} samples "
-                    "per pixel; refined as the render goes")
+            said = (f"forecast: {forecast_sentence(forecast, self.noise, with_warning=False)}, from a pilot of "
+                    f"{stats.samples} samples per pixel; refined as the render goes")
+            if forecast.warning:
+                said += f"; {forecast.warning.rstrip('.')}, so it may take longer"
             warning = getattr(stats, "noise_warning", None)
             if self.noise and warning and not forecast.warning:  # the render's own doubt (a trend, the scene's rare paths)
-                said += f" (but {warning.rstrip('.')}: the render does not stop on its noise while that holds)"
+                said += f"; {warning.rstrip('.')}: the render does not stop on its noise while that holds"
             self.notify(said)
         line, frac = self.line(stats)
         if self.tty:

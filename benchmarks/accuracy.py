@@ -88,7 +88,7 @@ def reported_trials(path, graph_small):
             estimate = estimate_noise(result.film)
             rows.append((spp, seed, result.stats.seconds, true_error(result.film.mean(), ref), estimate.relative_rms,
                          getattr(estimate, "low", None), getattr(estimate, "high", None),
-                         getattr(estimate, "warning", None)))
+                         getattr(estimate, "warning", None) or getattr(result.stats, "noise_warning", None)))
     return rows
 
 
@@ -126,10 +126,50 @@ def forecast_section(graphs, results) -> list[str]:
     return []
 
 
+# The sampler study: sample counts and seeds per sampler and scene (each seed's true error against the
+# converged reference; the RMS over seeds is the sampler's error).
+SAMPLER_TRIALS = ((64, 4), (256, 2))
+
+
 def sampler_gain_section(graphs, results) -> list[str]:
-    """Hook (issue 32, filled after the merges): the Sobol sampler's error against the independent
-    sampler's at equal time, per scene. Returns the section's lines; none until it is measured."""
-    return []
+    """The Owen-scrambled Sobol sampler against the independent one, per scene, at equal samples and
+    at equal time: error_independent / error_sobol, the second divided by the square root of the
+    ratio of their rendering seconds (as if each error fell as one over the square root of the time)."""
+    from renderer.compile import with_sampler
+    from renderer.render import render
+
+    from tests.renderer.converged import load_reference, true_error
+
+    lines = ["## The Sobol sampler against the independent one",
+             "",
+             "`image.sampler: sobol` (renderer/numerics/sobol.py: Owen-scrambled Sobol points in pairs of dimensions, one "
+             "independent scramble per batch) against the books' independent numbers, at "
+             + " and ".join(f"{spp} spp ({n} seeds)" for spp, n in SAMPLER_TRIALS)
+             + ". *Gain* is the independent sampler's true error over Sobol's (RMS over the seeds, against the converged "
+             "reference); *at equal time* divides it by the square root of Sobol's time over the independent sampler's. "
+             "The images are too small for a precise timing (tenths of a second): `benchmarks/sampler_gain.py` measures "
+             "the gains with more seeds and without a reference.",
+             "",
+             "| scene | " + " | ".join(f"gain at {spp} spp | at equal time" for spp, _ in SAMPLER_TRIALS) + " |",
+             "|---|" + "---|---|" * len(SAMPLER_TRIALS)]
+    for name, (_graph, small) in graphs.items():
+        ref = load_reference(name)
+        cells = []
+        for spp, seeds in SAMPLER_TRIALS:
+            errors, seconds = {}, {}
+            for sampler in ("independent", "sobol"):
+                graph = with_sampler(small, sampler)
+                squared, spent = 0.0, 0.0
+                for index in range(seeds):
+                    result = render(graph, samples=spp, seed=7000 + 100 * spp + index, kernel=KERNEL)
+                    squared += true_error(result.film.mean(), ref) ** 2
+                    spent += result.stats.seconds
+                errors[sampler], seconds[sampler] = math.sqrt(squared / seeds), spent
+            gain = errors["independent"] / errors["sobol"] if errors["sobol"] > 0 else float("nan")
+            timed = gain / math.sqrt(seconds["sobol"] / seconds["independent"]) if seconds["independent"] > 0 else float("nan")
+            cells += [f"{gain:.2f}", f"{timed:.2f}"]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def adaptive_gain_section(graphs, results) -> list[str]:

@@ -404,6 +404,11 @@ def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:
     return dataclasses.replace(graph, image=graph.image.model_copy(update={"integrator": integrator}))
 
 
+def with_sampler(graph: SceneGraph, sampler: str) -> SceneGraph:
+    """The graph rendered with another sampler (sampling.SAMPLERS)."""
+    return dataclasses.replace(graph, image=graph.image.model_copy(update={"sampler": sampler}))
+
+
 def with_width(graph: SceneGraph, width: int) -> SceneGraph:
     """The graph rendered at another width, keeping the image's shape."""
     image = graph.image

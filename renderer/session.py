@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from .executor import ExecutorFailed, KernelTime, Plan
-from .film import Film, relative_noise
+from .film import Film, estimate_noise, relative_noise
 from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
 
 # Below this many samples per pixel the noise estimate is not trusted to stop a render on.
@@ -43,6 +43,7 @@ class RenderStats:
     compile_seconds: float = 0.0  # the part of kernel_seconds spent compiling: never counted in `seconds`
     first_pass_seconds: float = 0.0  # rendering seconds until the first step of samples was in the film
     features: Optional[KernelFeatures] = None  # the kernel's feature set
+    pixels_done: Optional[float] = None  # adaptive sampling: the share of pixels stopped (None: not adaptive)
 
     @property
     def rays_per_second(self) -> float:
@@ -146,6 +147,7 @@ def render_progressively(
     time_budget: Optional[float] = None,
     noise_target: Optional[float] = None,
     notify: Optional[Callable[[str], None]] = None,
+    adaptive: bool = False,
 ) -> RenderResult:
     """Render into `film` (empty, or an earlier render's with the same seed) with `executor` until
     it holds `target` samples per pixel: the progressive loop of every front end.
@@ -162,11 +164,17 @@ def render_progressively(
     (`variants.seconds_left`), is long enough to repay the compile (`variants.worth_specialising`).
     `notify` receives a line before a compile or a switch. Time spent getting kernels ready is never
     counted as rendering time (`stats.seconds`, the time budget).
+
+    `adaptive` with a `noise_target`: adaptive sampling (adaptive_plan.AdaptiveRun): a uniform
+    pilot, then passes over the pixels not done; the executor must have `sampling` and
+    `set_sampling`. It ends when every pixel is done, or at a checkpoint where the estimate meets
+    the target with no warning (stop_reason "noise" both), or at the cap or the time budget.
     """
     chosen, may_switch = choose_kernel(needed, kernel, features)
     may_switch = may_switch and executor.can_switch_kernel
     stats = RenderStats(target_samples=target, features=chosen, samples=film.samples)
     start_samples = film.samples
+    run = _adaptive_run(executor, film, noise_target, target) if adaptive else None
     try:
         _add_kernel_time(stats, executor.start(film, chosen, notify))
         clock = RenderClock()
@@ -183,7 +191,8 @@ def render_progressively(
                         and (executor.stops_on_time_before_first_step or film.samples > start_samples)):
                     stats.stop_reason = "time"
                     break
-                step = executor.advance(Plan(target, start_samples, steps, stats.seconds, time_left), should_stop)
+                step_target = run.step_target(film, target) if run is not None else target
+                step = executor.advance(Plan(step_target, start_samples, steps, stats.seconds, time_left), should_stop)
                 if step is None:
                     stats.interrupted = True
                     stats.stop_reason = "interrupted"
@@ -197,7 +206,10 @@ def render_progressively(
                 stats.seconds = clock()
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
-                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+                if run is not None:
+                    reached, last_noise = _adaptive_progress(run, executor, film, stats, progress, last_noise)
+                else:
+                    reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
                 if reached:
                     stats.stop_reason = "noise"
                     break
@@ -221,5 +233,44 @@ def render_progressively(
     finally:
         executor.close()
     stats.seconds = clock()
-    stats.noise = relative_noise(film)
+    stats.noise = relative_noise(film) if film.uniform else estimate_noise(film).relative_rms
     return RenderResult(film, stats)
+
+
+def _adaptive_run(executor, film: Film, noise_target: Optional[float], target: int):
+    """The adaptive sampling of a render toward `noise_target` (None without one), with the
+    executor set to the film's stopping rule when it continues a render that has one."""
+    from .adaptive_plan import AdaptiveRun, stopping_sampling
+
+    if noise_target is None:
+        return None
+    if not hasattr(executor, "set_sampling"):
+        raise ValueError("this executor cannot sample adaptively: render without adaptive sampling")
+    if film.stopping is not None:
+        executor.set_sampling(stopping_sampling(executor.sampling, film.stopping))
+    return AdaptiveRun(noise_target, target)
+
+
+def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, last_noise: float) -> tuple[bool, float]:
+    """`report_progress` of an adaptive render: once the pilot is in, the stopping rule is fixed
+    and handed to the executor; the image's estimate is made at the checkpoints, where the render
+    may stop on it, and the share of pixels done is shown."""
+    from .adaptive_plan import is_checkpoint, stopping_sampling
+
+    stopping = run.sampling_after(film)
+    if stopping is not None:
+        film.stopping = stopping
+        executor.set_sampling(stopping_sampling(executor.sampling, stopping))
+    estimate = None
+    now = time.perf_counter()
+    if is_checkpoint(film.samples) or film.done.all():
+        estimate = estimate_noise(film)
+        stats.noise = estimate.relative_rms
+        last_noise = now
+    elif progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS:
+        stats.noise = relative_noise(film) if film.uniform else estimate_noise(film).relative_rms
+        last_noise = now
+    stats.pixels_done = run.share_done(film)
+    if progress is not None:
+        progress(stats)
+    return run.finished(film, estimate), last_noise

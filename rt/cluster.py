@@ -271,6 +271,11 @@ class ClusterRounds:
         self.watch = WorkerWatch(client)
         return spent
 
+    def set_sampling(self, sampling) -> None:
+        """Chunks submitted from now on render with `sampling` (adaptive sampling's rule, set once
+        its pilot is merged: no chunk past the pilot was submitted before, see the session)."""
+        self.sampling = sampling
+
     def switch_kernel(self, features, notify=None):
         raise NotImplementedError("a cluster render keeps the kernel it started with")
 
@@ -349,8 +354,8 @@ class ClusterRounds:
         self.merged += 1
         added = self.rounds.bounds[self.merged] - film.samples
         film.samples = self.rounds.bounds[self.merged]
-        if film.samples >= self.target:
-            self.stop_submitting = True
+        # No round is planned past the session's target of the moment (`_submit`); that target may
+        # move on (adaptive sampling's pilot and checkpoints), so reaching it stops nothing here.
         return Step(added, rays, bad, 0.0)
 
     def advance(self, plan, should_stop=None):

@@ -17,7 +17,9 @@ class Sampling(NamedTuple):
     """What the kernels need to know about drawing samples."""
 
     sampler: int  # a value of SAMPLERS
-    threshold: float = 0.0  # adaptive: a pixel stops once its error is below this (radiance); 0: never stops
+    # adaptive (adaptive.pixel_converged): a pixel of n samples stops once the standard error of its
+    # mean is at most threshold * sqrt(n) (radiance), i.e. once n reaches its spread / threshold; 0: never stops
+    threshold: float = 0.0
     floor: int = 0  # adaptive: samples a pixel takes before it may stop (a multiple of config.BATCHES)
     tail: float = 1.0  # adaptive: a pixel whose largest sample holds more than this share of its squares goes on
 

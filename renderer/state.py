@@ -63,7 +63,11 @@ def scene_fingerprint(scene_json: str) -> str:
 
 
 def save_state(path: Path, film: Film, key: RenderKey) -> None:
-    meta = json.dumps({"version": STATE_VERSION, **key.__dict__, "samples": film.samples})
+    meta = {"version": STATE_VERSION, **key.__dict__, "samples": film.samples}
+    if film.stopping is not None:  # adaptive sampling's rule, so that a resume stops pixels the same way
+        threshold, floor, tail = film.stopping
+        meta["stopping"] = [float(threshold), int(floor), float(tail)]
+    meta = json.dumps(meta)
 
     def write(fh):
         np.savez(fh, **{name: getattr(film, name) for name in SUM_ARRAYS}, meta=np.array(meta))
@@ -133,7 +137,10 @@ def _meta(raw: np.ndarray, where: str) -> dict:
                          f"{STATE_VERSION} (render it again)")
     fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "integrator": str,
               "sampler": str, "samples": int}
-    if set(meta) != set(fields):
+    stopping = meta.pop("stopping", None)
+    if stopping is not None:
+        meta["stopping"] = _stopping(stopping, where)
+    if set(meta) - {"stopping"} != set(fields):
         missing, extra = sorted(set(fields) - set(meta)), sorted(set(meta) - set(fields))
         raise StateError(f"{where}: its metadata has the wrong fields (missing {missing}, unknown {extra})")
     for name, kind in fields.items():
@@ -176,6 +183,18 @@ class _BoundedReads:
 
     def close(self) -> None:
         pass  # the caller closes the file
+
+
+def _stopping(value, where: str) -> tuple:
+    """Adaptive sampling's rule as a state saves it: [threshold, floor, tail], finite and in range."""
+    ok = (isinstance(value, list) and len(value) == 3 and all(type(v) in (int, float) for v in value)
+          and all(math.isfinite(v) for v in value))
+    if ok:
+        threshold, floor, tail = value
+        ok = threshold >= 0 and type(floor) is int and 0 <= floor <= MAX_STATE_SAMPLES and floor % BATCHES == 0 and 0 <= tail <= 1
+    if not ok:
+        raise StateError(f"{where}: its metadata's adaptive stopping rule is not [threshold, floor, tail] in range")
+    return (float(threshold), int(floor), float(tail))
 
 
 def describe_mismatch(saved: RenderKey, key: RenderKey) -> str:
@@ -253,7 +272,7 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
             # Copies: the arrays read lie over the file's bytes, read-only, and the kernels add into them.
             arrays[name] = np.array(_parse_npy(data, name, where, (key.height, key.width) + tail, kind), order="C")
     _check_sums(arrays, samples, where)
-    return Film(samples=samples, **arrays)
+    return Film(samples=samples, **arrays, stopping=meta.get("stopping"))
 
 
 def _check_sums(arrays: dict, samples: int, where: str) -> None:

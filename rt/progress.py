@@ -68,6 +68,8 @@ class Progress:
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
         noise = self.noise_text(stats)
+        if getattr(stats, "pixels_done", None) is not None:  # adaptive sampling: the pixels it has stopped
+            noise += f"  {100 * stats.pixels_done:.0f}% of pixels done"
         line = (
             f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
             f"ETA {fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"

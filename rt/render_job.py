@@ -35,6 +35,8 @@ class RenderOptions:
     time_budget: Optional[str] = None
     noise: Optional[float] = None
     noise_map: Optional[Path] = None
+    samples_map: Optional[Path] = None  # --samples-map: each pixel's sample count (PNG normalised, EXR/PFM raw)
+    adaptive: bool = True  # --no-adaptive: with --noise, every pixel takes every sample
     save_state: Optional[Path] = None
     resume: Optional[Path] = None
     explain: bool = False
@@ -210,17 +212,19 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
     if problem == "threads":
         raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
-    for path, role in ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"), (opts.save_state, "state")):
-        allowed = suffixes_of(role)
+    for path, role in ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"), (opts.samples_map, "image+hdr"),
+                       (opts.save_state, "state")):
+        allowed = sum((suffixes_of(part) for part in role.split("+")), ())
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
-    if opts.hdr is not None and needs_exr(opts.hdr):
-        from scenefmt.hdr_files import EXR_MISSING, exr_available
+    for name, path in (("--hdr", opts.hdr), ("--samples-map", opts.samples_map)):
+        if path is not None and needs_exr(path):
+            from scenefmt.hdr_files import EXR_MISSING, exr_available
 
-        if not exr_available():
-            raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
+            if not exr_available():
+                raise fail(f"error: {name} {path}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
@@ -402,7 +406,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                     flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,
                     package=scene.package, progress=bar, max_depth=opts.max_depth, seed=opts.seed, film=film,
                     should_stop=stop.requested, time_budget=scene.budget_seconds, noise_target=opts.noise,
-                    notify=bar.notify,
+                    notify=bar.notify, adaptive=opts.adaptive,
                 )
             except ValueError as exc:
                 raise fail(f"error: {opts.scene}: {exc}")
@@ -432,7 +436,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)
             raise Stop(exc.status)
     total = time.perf_counter() - started
-    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.samples_map, opts.save_state) if p is not None)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
@@ -447,6 +451,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
             f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
         )
+    if stats.pixels_done is not None:
+        say(f"adaptive sampling: {100 * stats.pixels_done:.0f}% of the pixels stopped before {film.samples} spp, "
+            f"{film.counts.mean():.0f} samples per pixel on average", err=True)
     if stats.stop_reason == "time":
         say(f"stopped: the {budget_text(opts.time_budget or '')} time budget is spent", err=True)
     elif stats.stop_reason == "noise":
@@ -467,7 +474,8 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     import dataclasses
     import os
 
-    for name, value in (("--save-state", opts.save_state), ("--resume", opts.resume), ("--noise-map", opts.noise_map)):
+    for name, value in (("--save-state", opts.save_state), ("--resume", opts.resume), ("--noise-map", opts.noise_map),
+                        ("--samples-map", opts.samples_map)):
         if value is not None:
             say(f"error: {name} names one file: render one scene at a time to use it", err=True)
             raise Stop(2)

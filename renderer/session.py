@@ -263,6 +263,10 @@ def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, 
         executor.set_sampling(stopping_sampling(executor.sampling, stopping))
     estimate = None
     now = time.perf_counter()
+    if film.done.all():
+        # Every pixel stopped, some way into the last pass: the film holds what the pixels took,
+        # whatever the passes were (`samples` is the most any took, not where the pass ended).
+        film.samples = stats.samples = int(film.counts.max())
     if is_checkpoint(film.samples) or film.done.all():
         estimate = estimate_noise(film)
         stats.noise = estimate.relative_rms

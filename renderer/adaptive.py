@@ -12,7 +12,9 @@ The rule (chosen and calibrated in adaptive_plan.py, which sets `sampling.thresh
   every pixel at one standard error instead (n_i ~ sigma_i^2) spends exactly as many samples
   as a uniform render for the same image error, so it gains nothing on that figure.
 - A pixel whose largest sample (`peak`) holds more than `sampling.tail` of its sum of squares
-  never stops: a few rare, bright paths dominate it, and its spread says little yet.
+  does not stop while that sample alone moves its mean by more than the standard error it may
+  stop at: a few rare, bright paths dominate it, and its spread says little yet. (A dark pixel
+  whose rare paths are dim may stop: they cannot move its mean by much.)
 
 The decision reads only the pixel's own sums at a whole number of rounds of BATCHES samples, so
 it does not depend on passes, bands, threads, tiles or resume: images stay deterministic.
@@ -27,11 +29,13 @@ def pixel_converged(sums, row, col, n, sampling):
     """Whether the pixel at [row, col] of `sums`, holding `n` samples (a whole number of rounds of
     BATCHES), may stop: the variance of its mean from its batch means is at most
     sampling.threshold^2 * n, and its largest sample holds at most `sampling.tail` of its sum of
-    squares."""
+    squares or cannot move its mean by more than that standard error."""
     squares = sums.total_sq[row, col, 0] + sums.total_sq[row, col, 1] + sums.total_sq[row, col, 2]
     peak = sums.peak[row, col]
     peak2 = peak[0] * peak[0] + peak[1] * peak[1] + peak[2] * peak[2]
-    if peak2 > sampling.tail * squares:
+    # The peak's share of the squares, and its weight in the mean (its channels' average over n)
+    # against the standard error allowed, threshold * sqrt(n): squared, peak2 / 3 / n^2 > threshold^2 n.
+    if peak2 > sampling.tail * squares and peak2 > 3.0 * sampling.threshold * sampling.threshold * n * n * n:
         return False  # (an all-black pixel, 0 > 0, goes on to the spread, which is 0)
     per_batch = n // BATCHES
     spread = 0.0

@@ -29,14 +29,16 @@ from typing import Optional
 import numpy as np
 
 from .config import BATCHES
+from .film import estimate_noise
 from .sampling import Sampling
 
 PILOT = 32  # uniform samples per pixel before the threshold is chosen (a multiple of BATCHES)
 # A pixel may stop from here on: the kernel judges it at the end of each round of BATCHES
 # samples, the first round after the pilot (its decisions use only the pixel's own sums).
 FLOOR = PILOT + BATCHES
-# A pixel whose largest sample holds more than this share of its sum of squares goes on: a few
-# rare bright paths dominate it (a smooth spread of 40 samples puts 0.05 to 0.2 in the largest).
+# A pixel whose largest sample holds more than this share of its sum of squares goes on while
+# that sample can move its mean past the error allowed: a few rare bright paths dominate it (a
+# smooth spread of 40 samples puts 0.05 to 0.2 of its squares in the largest).
 TAIL = 0.25
 # The threshold aims at this fraction of the target: a pixel that stops on a spread that
 # happens to be low (eight batch means are few) has a larger error than it says.
@@ -144,6 +146,10 @@ class AdaptiveRun:
         None when the film already has one or the pilot is not done."""
         if film.stopping is not None or film.samples < PILOT:
             return None
+        if getattr(estimate_noise(film), "warning", None) is not None:
+            # The image's estimate cannot be trusted (rare bright paths): neither can a pixel's
+            # own spread, so none stops; the session goes on until the warning is gone.
+            return (0.0, FLOOR, TAIL)
         return (threshold_for(film, self.noise_target, self.cap), FLOOR, TAIL)
 
     @staticmethod

@@ -31,7 +31,8 @@ def sample(pixel: int, s: int, sigma: np.ndarray) -> float:
 def converged(film: Film, row: int, col: int, n: int, sampling: Sampling) -> bool:
     """adaptive.pixel_converged's rule in numpy."""
     squares = film.total_sq[row, col].sum()
-    if float(np.dot(film.peak[row, col], film.peak[row, col])) > sampling.tail * squares:
+    peak2 = float(np.dot(film.peak[row, col], film.peak[row, col]))
+    if peak2 > sampling.tail * squares and peak2 > 3 * sampling.threshold ** 2 * n ** 3:
         return False
     counts = np.array([[n]])
     se2 = pixel_mean_variance(film.batch[row:row + 1, col:col + 1], counts)[0, 0]

@@ -147,13 +147,17 @@ def true_error(film: Film, ref: Film) -> float:
 
 @pytest.mark.parametrize("name", ["cornell_box", "cornell_smoke"])
 def test_the_target_is_reached_and_samples_go_where_the_noise_is(name):
-    result = adaptive(name, 0.05)
+    target = 0.02
+    result = adaptive(name, target)
     film, ref = result.film, reference(name)
     assert result.stats.stop_reason == "noise"
     error = true_error(film, ref)
     # The threshold aims at 0.8 of the target; the estimate of each pixel's spread from 8
-    # batch means is itself noisy, which the margin covers.
-    assert error <= 0.05 * 1.15, error
+    # batch means is itself noisy, which the margin covers; the true error of an image whose
+    # error is dominated by a few pixels (the lamp's edge) varies by about a tenth from seed
+    # to seed. (Measured: 0.0144 on cornell_box, 0.0165 on cornell_smoke; 0.0347 and 0.0246
+    # toward 0.03, where pixels at the lamp's edge that saw no lamp in their pilot weigh more.)
+    assert error <= target * 1.15, error
     # Fewer samples than a uniform render needs for the same error (it falls as 1/sqrt(n)).
     uniform_needed = (true_error(render(graph_of(name), samples=PILOT, seed=77, kernel="general").film, ref) / error) ** 2 * PILOT
     assert film.counts.mean() < uniform_needed

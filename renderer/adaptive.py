@@ -11,6 +11,9 @@ The rule (chosen and calibrated in adaptive_plan.py, which sets `sampling.thresh
   number of samples (minimise sum sigma_i^2 / n_i with sum n_i fixed: n_i ~ sigma_i). Stopping
   every pixel at one standard error instead (n_i ~ sigma_i^2) spends exactly as many samples
   as a uniform render for the same image error, so it gains nothing on that figure.
+- A pixel's spread is taken as no less than `sampling.guard` (a share of the largest spread of
+  its 3x3 neighbourhood in the pilot): a pixel whose few first samples happen to agree (all on a
+  lamp, at its edge) would otherwise stop on a spread of zero, far from its mean.
 - A pixel whose largest sample (`peak`) holds more than `sampling.tail` of its sum of squares
   does not stop while that sample alone moves its mean by more than the standard error it may
   stop at: a few rare, bright paths dominate it, and its spread says little yet. (A dark pixel
@@ -48,4 +51,8 @@ def pixel_converged(sums, row, col, n, sampling):
             d = sums.batch[row, col, k, c] / per_batch - mean
             spread += d * d
     se2 = spread / (3.0 * BATCHES * (BATCHES - 1))
+    if sampling.guard.shape[0] > 0:
+        # Never less spread than its neighbours' pilot allows: a pixel at a lamp's edge whose pilot
+        # samples all hit the lamp looks flat, its neighbours do not.
+        se2 = max(se2, sampling.guard[row, col] / n)
     return se2 <= sampling.threshold * sampling.threshold * n

@@ -17,7 +17,11 @@ Every sample is assumed to cost the same: the cost of a pixel's samples is not k
 and with it the split would be n_i ~ sigma_i / sqrt(cost_i). Pixels whose paths are long (glass,
 media) are then sampled as much as their noise asks, not less because they are dear.
 
-The threshold, the floor and the tail share are fixed once, from the pilot, and kept in the film
+A pixel's spread is never taken below a share of its neighbours' in the pilot (`neighbourhood_guard`):
+a pixel at a lamp's edge whose first samples all hit the lamp looks flat, and would stop far
+from its mean; its neighbours show the edge.
+
+The threshold, the floor, the tail share and the guard are fixed once, from the pilot, and kept in the film
 (`Film.stopping`) and in a saved state, so a resumed render goes on with the same decisions.
 """
 
@@ -40,6 +44,10 @@ FLOOR = PILOT + BATCHES
 # that sample can move its mean past the error allowed: a few rare bright paths dominate it (a
 # smooth spread of 40 samples puts 0.05 to 0.2 of its squares in the largest).
 TAIL = 0.25
+# A pixel's spread is taken as at least this share of the largest in its 3x3 neighbourhood in the
+# pilot (Sampling.guard): the largest of nine spreads estimated from eight batch means each is
+# about twice their mean, so a pixel like its neighbours keeps its own spread.
+GUARD_SHARE = 0.25
 # The threshold aims at this fraction of the target: a pixel that stops on a spread that
 # happens to be low (eight batch means are few) has a larger error than it says.
 MARGIN = 0.8
@@ -78,6 +86,15 @@ def pixel_mean_variance(batch: np.ndarray, counts: np.ndarray) -> np.ndarray:
     return np.square(spread).sum(axis=(2, 3)) / (3.0 * BATCHES * (BATCHES - 1))
 
 
+def neighbourhood_guard(sigma2: np.ndarray) -> np.ndarray:
+    """GUARD_SHARE of the largest per-sample variance in each pixel's 3x3 neighbourhood (itself
+    included), from the pilot's variances `sigma2` (h, w): Sampling.guard."""
+    padded = np.pad(sigma2, 1, mode="edge")
+    h, w = sigma2.shape
+    most = np.max([padded[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)], axis=0)
+    return np.ascontiguousarray(GUARD_SHARE * most, dtype=np.float64)
+
+
 def predicted_error(sigma2: np.ndarray, threshold: float, floor: int, cap: int) -> float:
     """The image's mean square error (per pixel and channel) once each pixel of per-sample
     variance `sigma2` stopped by the rule of adaptive.pixel_converged at `threshold`."""
@@ -88,13 +105,21 @@ def predicted_error(sigma2: np.ndarray, threshold: float, floor: int, cap: int) 
     return float(np.mean(sigma2 / n))
 
 
-def threshold_for(film, noise_target: float, cap: int, floor: int = FLOOR) -> float:
+def pilot_variance(film) -> np.ndarray:
+    """Each pixel's variance of one sample (h, w), channels averaged, from its batch means."""
+    return pixel_mean_variance(film.batch, film.counts) * np.maximum(film.counts, 1)
+
+
+def threshold_for(film, noise_target: float, cap: int, floor: int = FLOOR, guard=None) -> float:
     """The threshold of adaptive.pixel_converged that brings the image of `film` (a uniform
-    pilot) to MARGIN * `noise_target` relative RMS error by the prediction of `predicted_error`;
-    0.0 (no pixel stops) when even `cap` samples everywhere cannot."""
+    pilot) to MARGIN * `noise_target` relative RMS error by the prediction of `predicted_error`
+    (each pixel's variance at least its `guard`); 0.0 (no pixel stops) when even `cap` samples
+    everywhere cannot."""
     n = film.counts
     se2 = pixel_mean_variance(film.batch, n)
     sigma2 = se2 * np.maximum(n, 1)
+    if guard is not None:
+        sigma2 = np.maximum(sigma2, guard)
     mean = film.total / np.maximum(n, 1)[:, :, None]
     # The mean square of the image, less what its own noise adds to it.
     signal = max(float(np.mean(np.square(mean))) - float(np.mean(se2)), 0.25 * float(np.mean(np.square(mean))))
@@ -120,9 +145,10 @@ def threshold_for(film, noise_target: float, cap: int, floor: int = FLOOR) -> fl
 
 
 def stopping_sampling(sampling: Sampling, stopping: tuple) -> Sampling:
-    """`sampling` with the stopping rule (threshold, floor, tail) of a film."""
-    threshold, floor, tail = stopping
-    return sampling._replace(threshold=float(threshold), floor=int(floor), tail=float(tail))
+    """`sampling` with the stopping rule (threshold, floor, tail, guard) of a film."""
+    threshold, floor, tail, guard = stopping
+    return sampling._replace(threshold=float(threshold), floor=int(floor), tail=float(tail),
+                             guard=np.ascontiguousarray(guard, dtype=np.float64))
 
 
 class AdaptiveRun:
@@ -142,15 +168,16 @@ class AdaptiveRun:
         return min(target, next_checkpoint(film.samples))
 
     def sampling_after(self, film) -> Optional[tuple]:
-        """The stopping rule (threshold, floor, tail) to adopt now: once, when the pilot is in;
-        None when the film already has one or the pilot is not done."""
+        """The stopping rule (threshold, floor, tail, guard) to adopt now: once, when the pilot
+        is in; None when the film already has one or the pilot is not done."""
         if film.stopping is not None or film.samples < PILOT:
             return None
+        guard = neighbourhood_guard(pilot_variance(film))
         if getattr(estimate_noise(film), "warning", None) is not None:
             # The image's estimate cannot be trusted (rare bright paths): neither can a pixel's
             # own spread, so none stops; the session goes on until the warning is gone.
-            return (0.0, FLOOR, TAIL)
-        return (threshold_for(film, self.noise_target, self.cap), FLOOR, TAIL)
+            return (0.0, FLOOR, TAIL, guard)
+        return (threshold_for(film, self.noise_target, self.cap, guard=guard), FLOOR, TAIL, guard)
 
     @staticmethod
     def share_done(film) -> float:

@@ -294,7 +294,8 @@ class ClusterRounds:
                                           budget_left, self.width * self.height, self.threads, self.chunk_seconds)
             rounds.plan(size)
         start, count = rounds.range(r)
-        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator, self.sampling)
+        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator,
+                             chunks.tile_sampling(self.sampling, tiles[i]))
         future = self.client.submit(chunks.render_chunk, self.scene, self.features, chunk, self.latest[i], pure=False,
                                     key=f"rt-chunk-{self.package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         self.running[future] = (i, r)

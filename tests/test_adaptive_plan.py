@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from renderer.adaptive_plan import (BATCHES, CHECK_GROWTH, FLOOR, MARGIN, PILOT, TAIL, AdaptiveRun, is_checkpoint,
-                                    next_checkpoint, pixel_mean_variance, predicted_error, threshold_for)
+from renderer.adaptive_plan import (BATCHES, CHECK_GROWTH, FLOOR, GUARD_SHARE, MARGIN, PILOT, TAIL, is_checkpoint,
+                                    neighbourhood_guard, next_checkpoint, pixel_mean_variance, predicted_error,
+                                    threshold_for)
 from renderer.executor import KernelTime, Step
 from renderer.film import Film
 from renderer.sample_counts import sample_count_image
@@ -36,6 +37,8 @@ def converged(film: Film, row: int, col: int, n: int, sampling: Sampling) -> boo
         return False
     counts = np.array([[n]])
     se2 = pixel_mean_variance(film.batch[row:row + 1, col:col + 1], counts)[0, 0]
+    if sampling.guard.size:
+        se2 = max(se2, sampling.guard[row, col] / n)
     return se2 <= sampling.threshold ** 2 * n
 
 
@@ -144,13 +147,16 @@ def test_the_session_pilots_then_spends_samples_where_the_noise_is():
     result = render_progressively(executor, film, target=5000, kernel="general", noise_target=0.02, adaptive=True)
     # The rule is set once, when every pixel holds the pilot, and kept in the film.
     assert len(executor.set) == 1 and executor.set[0][0] == PILOT
-    assert film.stopping == (executor.sampling.threshold, FLOOR, TAIL) and executor.sampling.threshold > 0
+    threshold, floor, tail, guard = film.stopping
+    assert (threshold, floor, tail) == (executor.sampling.threshold, FLOOR, TAIL) and threshold > 0
+    assert guard.shape == (H, W) and executor.sampling.guard is not None
     # No step went past the pilot before the rule was set, nor past a checkpoint.
     assert all(t == PILOT for t, s in zip(executor.targets, range(len(executor.targets))) if t <= PILOT)
     assert all(is_checkpoint(t) for t in executor.targets)
     assert result.stats.stop_reason == "noise" and result.stats.pixels_done is not None
     counts = film.counts
-    quiet, noisy = counts[:, : W // 2], counts[:, W // 2:]
+    # (The quiet column beside the noisy half is guarded by its neighbours' spread.)
+    quiet, noisy = counts[:, : W // 2 - 1], counts[:, W // 2:]
     assert FLOOR <= quiet.min() and quiet.max() < noisy.min()
     # Samples in proportion to the spread: about 12 times as many on the noisy half.
     assert 6 < noisy.mean() / quiet.mean() < 16
@@ -173,7 +179,7 @@ def test_the_same_render_split_by_a_resume_gives_the_same_film(tmp_path):
     key = RenderKey("x", W, H, 5, 1)
     save_state(tmp_path / "s.npz", part, key)
     resumed = load_state(tmp_path / "s.npz", key)
-    assert resumed.stopping == part.stopping
+    assert resumed.stopping[:3] == part.stopping[:3] and np.array_equal(resumed.stopping[3], part.stopping[3])
     render_progressively(NumpyPasses(sigma, per_step=11), resumed, target=5000, kernel="general", noise_target=0.02,
                          adaptive=True)
     assert resumed.samples == whole.samples
@@ -195,10 +201,11 @@ def test_a_state_with_a_broken_stopping_rule_is_refused(tmp_path):
     film = Film.empty(2, 2)
     film.samples = 8
     film.counts[:] = 8
-    film.stopping = (0.1, FLOOR, TAIL)
+    film.stopping = (0.1, FLOOR, TAIL, np.full((2, 2), 0.5))
     key = RenderKey("x", 2, 2, 5, 1)
     save_state(tmp_path / "s.npz", film, key)
-    assert load_state(tmp_path / "s.npz", key).stopping == (0.1, FLOOR, TAIL)
+    loaded = load_state(tmp_path / "s.npz", key).stopping
+    assert loaded[:3] == (0.1, FLOOR, TAIL) and np.array_equal(loaded[3], np.full((2, 2), 0.5))
     with zipfile.ZipFile(tmp_path / "s.npz") as z:
         members = {n: z.read(n) for n in z.namelist()}
     meta = json.loads(str(np.load(tmp_path / "s.npz")["meta"]))
@@ -216,3 +223,25 @@ def test_the_sample_count_image():
     grey = sample_count_image(counts, raw=False)
     assert grey.max() == 1.0 and grey[1, 0, 0] == 1.0 and grey[0, 0, 0] == pytest.approx(1 / 16)
     assert not sample_count_image(np.zeros((2, 2), np.int64), raw=False).any()
+
+
+def test_the_guard_is_a_share_of_the_noisiest_neighbour():
+    sigma2 = np.zeros((5, 6))
+    sigma2[2, 3] = 8.0
+    guard = neighbourhood_guard(sigma2)
+    assert guard.flags.c_contiguous and guard.dtype == np.float64
+    assert np.array_equal(guard > 0, np.pad(np.ones((3, 3), bool), ((1, 1), (2, 1))))
+    assert guard.max() == GUARD_SHARE * 8.0
+
+
+def test_a_quiet_pixel_beside_noisy_ones_is_judged_by_their_spread_too():
+    # Column 5 is noisy; column 4, beside it, is as quiet as the rest (as a pixel at a lamp's
+    # edge whose pilot samples all hit the lamp looks).
+    sigma = np.full(W * H, 0.05)
+    sigma.reshape(H, W)[:, 5] = 1.0
+    executor = NumpyPasses(sigma)
+    film = Film.empty(W, H)
+    render_progressively(executor, film, target=5000, kernel="general", noise_target=0.02, adaptive=True)
+    guard = film.stopping[3]
+    assert (guard[:, 4] > 0.1 * 1.0 * GUARD_SHARE).all() and (guard[:, 1] < 0.01).all()
+    assert film.counts[:, 4].min() > film.counts[:, 1].max()

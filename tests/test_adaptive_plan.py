@@ -214,6 +214,16 @@ def test_a_state_with_a_broken_stopping_rule_is_refused(tmp_path):
     np.savez(tmp_path / "bad.npz", **arrays, meta=np.array(json.dumps(meta)))
     with pytest.raises(ValueError, match="stopping rule"):
         load_state(tmp_path / "bad.npz", key)
+    # A rule without its guard, and a negative guard.
+    del meta["stopping"]
+    np.savez(tmp_path / "bad.npz", **arrays, meta=np.array(json.dumps(meta)))
+    with pytest.raises(ValueError, match="come only together"):
+        load_state(tmp_path / "bad.npz", key)
+    meta["stopping"] = [0.1, FLOOR, TAIL]
+    arrays["guard"] = -arrays["guard"] - 1
+    np.savez(tmp_path / "bad.npz", **arrays, meta=np.array(json.dumps(meta)))
+    with pytest.raises(ValueError, match="not finite or are negative"):
+        load_state(tmp_path / "bad.npz", key)
 
 
 def test_the_sample_count_image():

@@ -1,10 +1,11 @@
 """Adaptive sampling's gain: the true error at equal time, adaptive against uniform.
 
-    python benchmarks/adaptive_gain.py [--scenes final_scene,cornell_smoke] [--width 48] [--noise 0.05]
+    python benchmarks/adaptive_gain.py [--scenes final_scene,cornell_smoke] [--width 48] [--noise 0.01] [--seeds 3]
 
-For each scene at a small size: a uniform reference render (seed 1); an adaptive render toward
-the noise target (seed 2), timed; a uniform render with a time budget of the adaptive render's
-seconds (seed 3), and one with as many samples as the adaptive render spent on average (seed 4).
+For each scene at a small size: a uniform reference render (seed 1); then, for each of `--seeds`
+seeds, an adaptive render toward the noise target, timed; a uniform render with a time budget of
+the adaptive render's seconds, and one with as many samples as the adaptive render spent on
+average (each render its own seed; the errors' RMS over the seeds is reported).
 Each image's true relative RMS error is measured against the reference, less the reference's own
 noise (its per-pixel variance, estimated from its samples, is subtracted from the mean squared
 difference), so the reference need not be converged. Also printed: the gain the pilot's
@@ -50,8 +51,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--width", type=int, default=48)
-    parser.add_argument("--noise", type=float, default=0.05)
-    parser.add_argument("--ref-spp", type=int, default=512)
+    parser.add_argument("--noise", type=float, default=0.01)
+    parser.add_argument("--ref-spp", type=int, default=2048)
+    parser.add_argument("--seeds", type=int, default=3, help="renders of each kind, their errors' RMS reported")
     args = parser.parse_args(argv)
 
     from renderer.compile import compile_scene, with_width
@@ -65,19 +67,26 @@ def main(argv=None) -> int:
         flat = compile_scene(graph)
         render(with_width(graph, 4), samples=1, kernel="general")  # the kernel, loaded or compiled: not timed
         ref = render(graph, flat=flat, samples=args.ref_spp, seed=1, kernel="general")
-        ada = render(graph, flat=flat, samples=1_000_000, seed=2, noise_target=args.noise, adaptive=True, kernel="general")
-        seconds = ada.stats.seconds
-        timed = render(graph, flat=flat, samples=1_000_000, seed=3, time_budget=seconds, kernel="general")
-        spp = max(2, int(round(ada.film.counts.mean())))
-        equal = render(graph, flat=flat, samples=spp, seed=4, kernel="general")
-        e_ada, e_time, e_spp = true_error(ada.film, ref.film), true_error(timed.film, ref.film), true_error(equal.film, ref.film)
-        rows.append((name, args.noise, e_ada, seconds, ada.film.counts.mean(), ada.film.done.mean(), e_time, timed.film.samples,
+        runs = []
+        for k in range(args.seeds):  # the errors of one seed swing with a scene's few brightest paths
+            ada = render(graph, flat=flat, samples=1_000_000, seed=2 + 10 * k, noise_target=args.noise, adaptive=True,
+                         kernel="general")
+            seconds = ada.stats.seconds
+            timed = render(graph, flat=flat, samples=1_000_000, seed=3 + 10 * k, time_budget=seconds, kernel="general")
+            spp = max(2, int(round(ada.film.counts.mean())))
+            equal = render(graph, flat=flat, samples=spp, seed=4 + 10 * k, kernel="general")
+            runs.append((true_error(ada.film, ref.film), seconds, ada.film.counts.mean(), ada.film.done.mean(),
+                         true_error(timed.film, ref.film), timed.film.samples, true_error(equal.film, ref.film)))
+        r = np.array(runs, dtype=float)
+        rms = lambda column: float(np.sqrt(np.mean(np.square(r[:, column]))))  # noqa: E731
+        e_ada, e_time, e_spp = rms(0), rms(4), rms(6)
+        rows.append((name, args.noise, e_ada, r[:, 1].mean(), r[:, 2].mean(), r[:, 3].mean(), e_time, int(r[:, 5].mean()),
                      e_time / e_ada if e_ada > 0 else float("inf"), e_spp / e_ada if e_ada > 0 else float("inf"),
                      promised_gain(ref.film), ref.stats.seconds))
         print(f"  {name}: done ({time.perf_counter() - started:.0f} s so far)", file=sys.stderr, flush=True)
 
     print(f"adaptive sampling toward {100 * args.noise:g}% relative RMS, {args.width} px wide, references of {args.ref_spp} spp "
-          "(their noise subtracted); general kernel")
+          f"(their noise subtracted); general kernel; RMS of the errors of {args.seeds} seeds, mean seconds and spp")
     print()
     print("| scene | true error, adaptive | its seconds | its mean spp | pixels stopped | true error, uniform at equal time "
           "(spp) | gain at equal time | gain at equal samples | ideal gain (pilot-free) |")

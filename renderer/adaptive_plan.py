@@ -173,7 +173,7 @@ class AdaptiveRun:
         if film.stopping is not None or film.samples < PILOT:
             return None
         guard = neighbourhood_guard(pilot_variance(film))
-        if getattr(estimate_noise(film), "warning", None) is not None:
+        if estimate_noise(film).warning is not None:
             # The image's estimate cannot be trusted (rare bright paths): neither can a pixel's
             # own spread, so none stops; the session goes on until the warning is gone.
             return (0.0, FLOOR, TAIL, guard)
@@ -184,11 +184,12 @@ class AdaptiveRun:
         return float(np.count_nonzero(film.done)) / max(1, film.done.size)
 
     def finished(self, film, estimate) -> bool:
-        """Whether the render may end here: every pixel stopped, or, at a checkpoint, the image's
-        estimate (`estimate`: film.estimate_noise's, or None) at the target with no warning."""
+        """Whether the render may end here: every pixel stopped, or, at a checkpoint, the upper end
+        of the interval of the image's estimate (`estimate`: film.estimate_noise's, or None) at the
+        target with no warning."""
         if film.stopping is not None and film.done.all():
             return True
         if estimate is None or not is_checkpoint(film.samples):
             return False
-        trusted = getattr(estimate, "warning", None) is None
-        return trusted and math.isfinite(estimate.relative_rms) and estimate.relative_rms <= self.noise_target
+        high = estimate.high  # the upper end of the error's interval (film.estimate_noise)
+        return estimate.warning is None and math.isfinite(high) and high <= self.noise_target

@@ -14,6 +14,7 @@ from typing import Callable, NamedTuple, Optional
 import numpy as np
 
 from .config import BATCHES
+from .error_estimate import NoiseEstimate, estimate  # NoiseEstimate: callers import it from here too
 
 
 class PixelSums(NamedTuple):
@@ -244,20 +245,6 @@ def write_image(path: Path, linear: np.ndarray) -> None:
     found.write(path, linear)
 
 
-@dataclass
-class NoiseEstimate:
-    """How far the image is likely to be from the converged one, from the samples' own spread.
-
-    `relative_rms` is sqrt(sum of squared standard errors) / sqrt(sum of squared pixel values)
-    over all pixels and channels: the expected RMS error relative to the image's RMS value.
-    """
-
-    relative_rms: float
-    worst_pixel: tuple[int, int]  # (x, y) of the pixel with the largest standard error
-    worst_relative: float  # that pixel's standard error relative to its own value
-    error: np.ndarray  # (h, w) standard error of each pixel's mean, averaged over channels
-
-
 def relative_noise(film: Film) -> float:
     """The relative RMS noise of `estimate_noise`, computed without its per-pixel map.
 
@@ -266,6 +253,16 @@ def relative_noise(film: Film) -> float:
     image, where the whole estimate took 30 ms.
     """
     n = film.samples
+    if not film.uniform:  # adaptive sampling stopped some pixels: each pixel's own count
+        n = np.maximum(film.counts, 1).astype(np.float64)[:, :, None]
+        if film.counts.min() < 2:
+            return float("inf")
+        mean = film.total / n
+        signal = float(np.square(mean).sum())
+        se2_sum = float((np.maximum(film.total_sq - film.total * mean, 0.0) / ((n - 1) * n)).sum())
+        if signal > 0:
+            return math.sqrt(se2_sum / signal)
+        return 0.0 if se2_sum == 0 else float("inf")
     if n < 2:
         return float("inf")
     # Sum over pixels of the unbiased sample variance (clamped at 0 against rounding), / n for
@@ -282,19 +279,11 @@ def relative_noise(film: Film) -> float:
 
 
 def estimate_noise(film: Film) -> NoiseEstimate:
-    """The standard error of each pixel's mean from the sums of samples and of their squares."""
-    n = film.samples
-    h, w = film.height, film.width
-    if n < 2:
-        return NoiseEstimate(float("inf"), (0, 0), float("inf"), np.full((h, w), np.inf))
-    mean = film.total / n
-    se2 = film.mean_variance()
-    relative = relative_noise(film)
-    error = np.sqrt(se2).mean(axis=2)
-    y, x = np.unravel_index(int(np.argmax(error)), error.shape)
-    value = float(mean[y, x].mean())
-    worst_relative = float(error[y, x] / value) if value > 0 else (0.0 if error[y, x] == 0 else float("inf"))
-    return NoiseEstimate(relative, (int(x), int(y)), worst_relative, error)
+    """The error of the image with its interval at 95% confidence, each pixel's standard error
+    and its upper bound, and a warning when rare bright samples make the estimate untrustworthy
+    (renderer/error_estimate.py: from the film's batch means, or from its single samples when it
+    has no batches)."""
+    return estimate(film)
 
 
 def noise_map_image(estimate: NoiseEstimate) -> np.ndarray:

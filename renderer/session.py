@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from .executor import ExecutorFailed, KernelTime, Plan
+from .error_estimate import VarianceTrend
 from .film import Film, estimate_noise, relative_noise
 from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth_specialising
 
@@ -27,6 +28,12 @@ from .variants import GENERAL, KernelFeatures, first_kernel, seconds_left, worth
 MIN_SAMPLES_FOR_NOISE = 8
 # The progress display refreshes its noise estimate (a pass over the film) at most this often.
 NOISE_DISPLAY_SECONDS = 1.0
+# Under a noise target the full estimate (a pass over the film's batches) is made at most once a
+# NOISE_DISPLAY_SECONDS, and at most once per this many times its own cost in rendering time.
+FULL_ESTIMATE_SHARE = 10.0
+# Films of at most this many pixels refresh the cheap estimate (under a millisecond) after every
+# step, so that the trend of the spread per sample is seen on short renders too.
+TREND_EVERY_STEP_PIXELS = 256 * 256
 
 
 @dataclass
@@ -38,7 +45,13 @@ class RenderStats:
     bad_samples: int = 0  # samples that were not finite (a bug): dropped and reported
     interrupted: bool = False
     stop_reason: str = "samples"  # samples | time | noise | interrupted
-    noise: float = float("inf")  # relative RMS noise estimate at the end (see film.estimate_noise)
+    noise: float = float("inf")  # relative RMS noise at the end: the cheap figure of film.relative_noise
+    # The upper end of the error's 95% interval at the last full estimate (film.estimate_noise), what a
+    # noise target stops on; inf until one is made (only under a noise target).
+    noise_high: float = float("inf")
+    # Why the error estimate cannot be trusted, when the render saw it: the spread per sample grew
+    # as no sound estimate would (error_estimate.VarianceTrend), or the last full estimate warned.
+    noise_warning: Optional[str] = None
     kernel_seconds: float = 0.0  # compiling the kernels, or loading them from Numba's disk cache
     compile_seconds: float = 0.0  # the part of kernel_seconds spent compiling: never counted in `seconds`
     first_pass_seconds: float = 0.0  # rendering seconds until the first step of samples was in the film
@@ -100,22 +113,62 @@ def choose_kernel(needed: KernelFeatures, kernel: str = "auto",
     return chosen, kernel == "auto" and chosen != needed
 
 
+class NoiseTarget:
+    """When a render with a noise target may stop: the upper end of the error's 95% interval
+    (film.estimate_noise) is at or below the target, and nothing says the estimate cannot be
+    trusted (neither the estimate's heavy-tail warning nor the trend of the spread per sample).
+
+    The full estimate is a pass over the film and its batches (about 0.25 s of CPU at 600x600):
+    it is made at most once a NOISE_DISPLAY_SECONDS and once per FULL_ESTIMATE_SHARE times its own
+    cost, so it never takes more than a tenth of the rendering time; on a small film (at most
+    TREND_EVERY_STEP_PIXELS, a few milliseconds), after every step.
+    """
+
+    def __init__(self, target: float):
+        self.target = target
+        self.next_at = float("-inf")  # the time before which no full estimate is made
+
+    def reached(self, film: Film, stats: RenderStats, now: float) -> bool:
+        if film.samples < MIN_SAMPLES_FOR_NOISE or now < self.next_at:
+            return False
+        t0 = time.perf_counter()
+        estimate = estimate_noise(film)
+        cost = time.perf_counter() - t0
+        if film.width * film.height > TREND_EVERY_STEP_PIXELS:  # not a small film: at most once a second, a tenth of the time
+            self.next_at = now + max(NOISE_DISPLAY_SECONDS, cost * FULL_ESTIMATE_SHARE)
+        stats.noise_high = estimate.high
+        stats.noise_warning = estimate.warning or stats.noise_warning
+        return estimate.high <= self.target and stats.noise_warning is None
+
+
 def report_progress(film: Film, stats: RenderStats, progress: Optional[Callable[[RenderStats], None]],
-                    noise_target: Optional[float], last_noise: float) -> tuple[bool, float]:
+                    noise_target: Optional[float], last_noise: float, trend: Optional[VarianceTrend] = None,
+                    target: Optional[NoiseTarget] = None) -> tuple[bool, float]:
     """After samples were added to `film`: refresh the noise estimate where it is needed, show
     progress, and say whether the noise target is reached; also the time of the last estimate.
 
-    The estimate costs a pass over the film: it is made for a noise target, else for the
-    progress display at most once a second. It needs a few samples before it is trusted to stop on.
+    The cheap estimate (film.relative_noise) costs a pass over the film's sums: it is made for a
+    noise target or a small film after every step, else at most once a second (for the progress
+    display and the trend), and each one feeds `trend`
+    (whose warning goes to `stats.noise_warning`). The stop itself is `target`'s (a NoiseTarget of
+    `noise_target`: the interval's upper end, no warning); without one, the cheap figure at or below
+    `noise_target`. Either needs a few samples before it is trusted to stop on.
     """
     now = time.perf_counter()
-    if noise_target is not None or (progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS):
+    small = film.width * film.height <= TREND_EVERY_STEP_PIXELS
+    if noise_target is not None or small or now - last_noise >= NOISE_DISPLAY_SECONDS:
         stats.noise = relative_noise(film)
         last_noise = now
+        if trend is not None:
+            trend.add(film.samples, stats.noise)
+            stats.noise_warning = trend.warning()
     if progress is not None:
         progress(stats)
-    reached = noise_target is not None and film.samples >= MIN_SAMPLES_FOR_NOISE and stats.noise <= noise_target
-    return reached, last_noise
+    if noise_target is None or film.samples < MIN_SAMPLES_FOR_NOISE:
+        return False, last_noise
+    if target is not None:
+        return target.reached(film, stats, now), last_noise
+    return stats.noise <= noise_target, last_noise
 
 
 class RenderClock:
@@ -155,7 +208,8 @@ def render_progressively(
     `should_stop` is polled before each step (and by the executor within one) and ends the render
     early with every finished step kept. With `time_budget` (seconds of rendering) or
     `noise_target` (relative RMS noise, see `film.estimate_noise`) the render also stops when the
-    time is spent or the estimated noise falls below the target; `target` is then the cap.
+    time is spent or when the upper end of the error's 95% interval falls below the target while
+    nothing says the estimate cannot be trusted (`NoiseTarget`); `target` is then the cap.
     `stats.stop_reason` says which ended it: samples, time, noise or interrupted.
 
     The kernel: `needed` is the paths the scene reaches, `kernel` and `features` choose as in
@@ -180,6 +234,8 @@ def render_progressively(
         clock = RenderClock()
         time_left = (lambda: time_budget - clock()) if time_budget is not None else None
         last_noise = clock.start
+        trend = VarianceTrend()
+        stop_on_noise = NoiseTarget(noise_target) if noise_target is not None else None
         steps = 0
         try:
             while film.samples < target:
@@ -209,7 +265,7 @@ def render_progressively(
                 if run is not None:
                     reached, last_noise = _adaptive_progress(run, executor, film, stats, progress, last_noise)
                 else:
-                    reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise)
+                    reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise)
                 if reached:
                     stats.stop_reason = "noise"
                     break
@@ -233,7 +289,7 @@ def render_progressively(
     finally:
         executor.close()
     stats.seconds = clock()
-    stats.noise = relative_noise(film) if film.uniform else estimate_noise(film).relative_rms
+    stats.noise = relative_noise(film)
     return RenderResult(film, stats)
 
 
@@ -254,7 +310,10 @@ def _adaptive_run(executor, film: Film, noise_target: Optional[float], target: i
 def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, last_noise: float) -> tuple[bool, float]:
     """`report_progress` of an adaptive render: once the pilot is in, the stopping rule is fixed
     and handed to the executor; the image's estimate is made at the checkpoints, where the render
-    may stop on it, and the share of pixels done is shown."""
+    may stop on it (the upper end of its interval at the target, no warning: as `NoiseTarget`,
+    but at fixed sample counts, so the image does not depend on the passes; the trend of the
+    spread per sample is not watched, since stopping pixels changes it), and the share of pixels
+    done is shown."""
     from .adaptive_plan import is_checkpoint, stopping_sampling
 
     stopping = run.sampling_after(film)
@@ -269,10 +328,12 @@ def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, 
         film.samples = stats.samples = int(film.counts.max())
     if is_checkpoint(film.samples) or film.done.all():
         estimate = estimate_noise(film)
-        stats.noise = estimate.relative_rms
+        stats.noise = relative_noise(film)
+        stats.noise_high = estimate.high
+        stats.noise_warning = estimate.warning
         last_noise = now
     elif progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS:
-        stats.noise = relative_noise(film) if film.uniform else estimate_noise(film).relative_rms
+        stats.noise = relative_noise(film)
         last_noise = now
     stats.pixels_done = run.share_done(film)
     if progress is not None:

@@ -133,7 +133,11 @@ class Image:
 
     - `array`: (height, width, 3) float32 linear RGB radiance, unclamped (what `--hdr` writes).
     - `samples`, `width`, `height`; `noise`: the relative RMS noise estimated from the samples
-      (inf below 2 samples per pixel); `noise_map`: each pixel's standard error (height, width);
+      (inf below 2 samples per pixel); `noise_interval`: (low, high), which holds the true
+      relative RMS error of this image at 95%; `noise_warning`: None, or one sentence saying why
+      the estimate cannot be trusted (rare bright paths dominate it); `noise_estimate`: the whole
+      `renderer.film.NoiseEstimate` (with `suspect`, the pixels the warning is about, and
+      `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
     - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
@@ -191,6 +195,18 @@ class Image:
     @property
     def noise(self) -> float:
         return self.noise_estimate.relative_rms
+
+    @property
+    def noise_interval(self) -> tuple[float, float]:
+        estimate = self.noise_estimate
+        return estimate.low, estimate.high
+
+    @property
+    def noise_warning(self) -> Optional[str]:
+        """The estimate's own warning, else the render's (the error fell more slowly than samples were added)."""
+        if self.film.samples < 2:
+            return None
+        return self.noise_estimate.warning or getattr(self.stats, "noise_warning", None)
 
     @property
     def noise_map(self) -> "np.ndarray":

@@ -247,7 +247,7 @@ def render(
         None, "--time", help="Render in passes until this much time is spent (30s, 2m, 1h); --spp is then the cap."
     ),
     noise: Optional[float] = typer.Option(
-        None, "--noise", min=0.0, help="Render until the estimated relative RMS noise is below this (0.02 = 2%); --spp is then the cap."
+        None, "--noise", min=0.0, help="Render until the estimated relative RMS noise is below this (0.02 = 2%) at 95% confidence, and not while the estimate warns that rare bright paths make it untrustworthy; --spp is then the cap."
     ),
     noise_map: Optional[Path] = typer.Option(None, "--noise-map", help="Write the per-pixel noise estimate as a PNG."),
     samples_map: Optional[Path] = typer.Option(

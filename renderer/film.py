@@ -47,6 +47,10 @@ class Film:
     peak: Optional[np.ndarray] = None
     counts: Optional[np.ndarray] = None
     done: Optional[np.ndarray] = None
+    # Adaptive sampling's rule (threshold, floor, tail, guard: sampling.Sampling's fields), fixed once by
+    # the pilot (adaptive_plan.py) and saved with the film, so a resume stops pixels the same way;
+    # None: no pixel of this film was judged.
+    stopping: Optional[tuple] = None
 
     def __post_init__(self):
         h, w = self.total.shape[:2]

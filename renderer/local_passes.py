@@ -133,6 +133,12 @@ class LocalPasses:
         self.render_pass = chosen_pass
         return KernelTime(spent, spent if compiling else 0.0)
 
+    def set_sampling(self, sampling: Sampling) -> None:
+        """Render the next passes with `sampling` (adaptive sampling's rule, once its pilot is in).
+        Pixels it stops cost next to nothing in later passes (the kernel leaves them at once), so
+        the passes, sized by their measured time, grow as pixels finish."""
+        self.sampling = sampling
+
     def start(self, film: Film, features: KernelFeatures, notify=None) -> KernelTime:
         self.film = film
         return self._load(features, notify)

@@ -55,13 +55,14 @@ def render_flat(
     features: Optional[KernelFeatures] = None,
     kernel: str = "auto",
     notify: Optional[Callable[[str], None]] = None,
+    adaptive: bool = False,
 ) -> RenderResult:
     """Render the flat scene `flat` with the settings of `frame` (unless overridden) until
     `samples` per pixel are done, in this process.
 
     `film` continues an earlier render with the same seed; `should_stop`, `time_budget`,
     `noise_target`, `progress`, `notify`, and the kernel's choice (`needed`, `kernel`,
-    `features`) are those of `session.render_progressively`. `pass_seconds` is about how long a
+    `features`) and `adaptive` are those of `session.render_progressively`. `pass_seconds` is about how long a
     pass, and a band of a pass, should take.
     """
     executor = LocalPasses.for_frame(flat, frame, seed=seed, max_depth=max_depth, pass_seconds=pass_seconds)
@@ -70,4 +71,4 @@ def render_flat(
     target = samples if samples is not None else frame.samples
     return render_progressively(executor, film, target=target, needed=needed, kernel=kernel, features=features,
                                 progress=progress, should_stop=should_stop, time_budget=time_budget,
-                                noise_target=noise_target, notify=notify, prior=rare_path_prior(flat))
+                                noise_target=noise_target, notify=notify, adaptive=adaptive, prior=rare_path_prior(flat))

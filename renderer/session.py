@@ -61,6 +61,7 @@ class RenderStats:
     # Where a render with a noise target or a time budget is expected to stop (renderer/forecast.py):
     # None until its pilot is done, then refreshed after each step.
     forecast: Optional[object] = None
+    pixels_done: Optional[float] = None  # adaptive sampling: the share of pixels stopped (None: not adaptive)
 
     @property
     def rays_per_second(self) -> float:
@@ -219,6 +220,7 @@ def render_progressively(
     noise_target: Optional[float] = None,
     notify: Optional[Callable[[str], None]] = None,
     prior: Optional[RarePathPrior] = None,
+    adaptive: bool = False,
 ) -> RenderResult:
     """Render into `film` (empty, or an earlier render's with the same seed) with `executor` until
     it holds `target` samples per pixel: the progressive loop of every front end.
@@ -239,11 +241,17 @@ def render_progressively(
     counted as rendering time (`stats.seconds`, the time budget). `prior` (rare_paths.rare_path_prior
     of the scene) says when the scene itself makes the estimate untrustworthy: it goes to
     `stats.noise_warning` with the trend's warnings, and a noise target does not stop while it holds.
+
+    `adaptive` with a `noise_target`: adaptive sampling (adaptive_plan.AdaptiveRun): a uniform
+    pilot, then passes over the pixels not done; the executor must have `sampling` and
+    `set_sampling`. It ends when every pixel is done, or at a checkpoint where the estimate meets
+    the target with no warning (stop_reason "noise" both), or at the cap or the time budget.
     """
     chosen, may_switch = choose_kernel(needed, kernel, features)
     may_switch = may_switch and executor.can_switch_kernel
     stats = RenderStats(target_samples=target, features=chosen, samples=film.samples)
     start_samples = film.samples
+    run = _adaptive_run(executor, film, noise_target, target) if adaptive else None
     try:
         _add_kernel_time(stats, executor.start(film, chosen, notify))
         clock = RenderClock()
@@ -266,7 +274,8 @@ def render_progressively(
                         and (executor.stops_on_time_before_first_step or film.samples > start_samples)):
                     stats.stop_reason = "time"
                     break
-                step = executor.advance(Plan(target, start_samples, steps, stats.seconds, time_left), should_stop)
+                step_target = run.step_target(film, target) if run is not None else target
+                step = executor.advance(Plan(step_target, start_samples, steps, stats.seconds, time_left), should_stop)
                 if step is None:
                     stats.interrupted = True
                     stats.stop_reason = "interrupted"
@@ -280,8 +289,13 @@ def render_progressively(
                 stats.seconds = clock()
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
-                reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise,
-                                                      prior, tracker, step)
+                if run is not None:
+                    reached, last_noise = _adaptive_progress(run, executor, film, stats, progress, last_noise, prior)
+                    if tracker is not None:
+                        stats.forecast = tracker.update(film, stats.seconds, step.samples, step.seconds)
+                else:
+                    reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise,
+                                                          prior, tracker, step)
                 if reached:
                     stats.stop_reason = "noise"
                     break
@@ -315,3 +329,52 @@ def render_progressively(
     if film.samples:
         stats.noise_warning = stats.noise_warning or trust_warning(film, None, prior)
     return RenderResult(film, stats)
+
+
+def _adaptive_run(executor, film: Film, noise_target: Optional[float], target: int):
+    """The adaptive sampling of a render toward `noise_target` (None without one), with the
+    executor set to the film's stopping rule when it continues a render that has one."""
+    from .adaptive_plan import AdaptiveRun, stopping_sampling
+
+    if noise_target is None:
+        return None
+    if not hasattr(executor, "set_sampling"):
+        raise ValueError("this executor cannot sample adaptively: render without adaptive sampling")
+    if film.stopping is not None:
+        executor.set_sampling(stopping_sampling(executor.sampling, film.stopping))
+    return AdaptiveRun(noise_target, target)
+
+
+def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, last_noise: float,
+                       prior: Optional[RarePathPrior] = None) -> tuple[bool, float]:
+    """`report_progress` of an adaptive render: once the pilot is in, the stopping rule is fixed
+    and handed to the executor; the image's estimate is made at the checkpoints, where the render
+    may stop on it (the upper end of its interval at the target, no warning: as `NoiseTarget`,
+    but at fixed sample counts, so the image does not depend on the passes; the trend of the
+    spread per sample is not watched, since stopping pixels changes it), and the share of pixels
+    done is shown."""
+    from .adaptive_plan import is_checkpoint, stopping_sampling
+
+    stopping = run.sampling_after(film, prior)
+    if stopping is not None:
+        film.stopping = stopping
+        executor.set_sampling(stopping_sampling(executor.sampling, stopping))
+    estimate = None
+    now = time.perf_counter()
+    if film.done.all():
+        # Every pixel stopped, some way into the last pass: the film holds what the pixels took,
+        # whatever the passes were (`samples` is the most any took, not where the pass ended).
+        film.samples = stats.samples = int(film.counts.max())
+    if is_checkpoint(film.samples) or film.done.all():
+        estimate = estimate_noise(film)
+        stats.noise = relative_noise(film)
+        stats.noise_high = estimate.high
+        stats.noise_warning = estimate.warning or trust_warning(film, None, prior)
+        last_noise = now
+    elif progress is not None and now - last_noise >= NOISE_DISPLAY_SECONDS:
+        stats.noise = relative_noise(film)
+        last_noise = now
+    stats.pixels_done = run.share_done(film)
+    if progress is not None:
+        progress(stats)
+    return run.finished(film, estimate, stats.noise_warning), last_noise

@@ -63,10 +63,16 @@ def scene_fingerprint(scene_json: str) -> str:
 
 
 def save_state(path: Path, film: Film, key: RenderKey) -> None:
-    meta = json.dumps({"version": STATE_VERSION, **key.__dict__, "samples": film.samples})
+    meta = {"version": STATE_VERSION, **key.__dict__, "samples": film.samples}
+    extra = {}
+    if film.stopping is not None:  # adaptive sampling's rule, so that a resume stops pixels the same way
+        threshold, floor, tail, guard = film.stopping
+        meta["stopping"] = [float(threshold), int(floor), float(tail)]
+        extra["guard"] = np.asarray(guard, dtype=np.float64)
+    meta = json.dumps(meta)
 
     def write(fh):
-        np.savez(fh, **{name: getattr(film, name) for name in SUM_ARRAYS}, meta=np.array(meta))
+        np.savez(fh, **{name: getattr(film, name) for name in SUM_ARRAYS}, **extra, meta=np.array(meta))
 
     _atomic_write(Path(path), write)
 
@@ -133,7 +139,10 @@ def _meta(raw: np.ndarray, where: str) -> dict:
                          f"{STATE_VERSION} (render it again)")
     fields = {"version": int, "scene": str, "width": int, "height": int, "max_depth": int, "seed": int, "integrator": str,
               "sampler": str, "samples": int}
-    if set(meta) != set(fields):
+    stopping = meta.pop("stopping", None)
+    if stopping is not None:
+        meta["stopping"] = _stopping(stopping, where)
+    if set(meta) - {"stopping"} != set(fields):
         missing, extra = sorted(set(fields) - set(meta)), sorted(set(meta) - set(fields))
         raise StateError(f"{where}: its metadata has the wrong fields (missing {missing}, unknown {extra})")
     for name, kind in fields.items():
@@ -176,6 +185,18 @@ class _BoundedReads:
 
     def close(self) -> None:
         pass  # the caller closes the file
+
+
+def _stopping(value, where: str) -> tuple:
+    """Adaptive sampling's rule as a state saves it: [threshold, floor, tail], finite and in range."""
+    ok = (isinstance(value, list) and len(value) == 3 and all(type(v) in (int, float) for v in value)
+          and all(math.isfinite(v) for v in value))
+    if ok:
+        threshold, floor, tail = value
+        ok = threshold >= 0 and type(floor) is int and 0 <= floor <= MAX_STATE_SAMPLES and floor % BATCHES == 0 and 0 <= tail <= 1
+    if not ok:
+        raise StateError(f"{where}: its metadata's adaptive stopping rule is not [threshold, floor, tail] in range")
+    return (float(threshold), int(floor), float(tail))
 
 
 def describe_mismatch(saved: RenderKey, key: RenderKey) -> str:
@@ -221,7 +242,7 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
     pixels = key.width * key.height
     sizes = {name: pixels * math.prod(tail) * _ITEM_BYTES[kind] + _HEADER_BYTES for name, (tail, kind) in _ARRAY_LAYOUT.items()}
     # Stored members can be no larger than their data; compressed ones are smaller still.
-    limit = sum(sizes.values()) + _META_BYTES * 8 + 64 * 1024
+    limit = sum(sizes.values()) + sizes["counts"] + _META_BYTES * 8 + 64 * 1024  # (+ the guard's, as large as counts)
     source = _BoundedReads(fh, max(limit, 1 << 17), where)  # zipfile looks for its directory in the last 64 KiB
     try:
         archive = zipfile.ZipFile(source)
@@ -232,6 +253,8 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
     with archive:
         members = {info.filename: info for info in archive.infolist()}
         expected = {f"{name}.npy" for name in SUM_ARRAYS} | {"meta.npy"}
+        if "guard.npy" in members:  # adaptive sampling's per-pixel guard, with its rule in the metadata
+            expected.add("guard.npy")
         if set(members) != expected or len(archive.infolist()) != len(expected):
             raise StateError(f"{where}: not a saved render state (it holds {sorted(members)[:8]}, not {sorted(expected)})")
         meta_raw = _parse_npy(_read_member(archive, members["meta.npy"], _META_BYTES * 4 + _HEADER_BYTES, where), "meta", where, (), "U")
@@ -243,6 +266,14 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
         if source.size > limit:
             raise StateError(f"{where}: the file is larger than the {limit:,} bytes a state of a {key.width}x{key.height} "
                              f"image can need ({source.size:,} bytes)")
+        if ("stopping" in meta) != ("guard.npy" in members):
+            raise StateError(f"{where}: its adaptive stopping rule and its per-pixel guard come only together")
+        if "stopping" in meta:
+            data = _read_member(archive, members["guard.npy"], sizes["counts"], where)
+            guard = np.array(_parse_npy(data, "guard", where, (key.height, key.width), "f"), order="C")
+            if not (np.isfinite(guard).all() and (guard >= 0).all()):
+                raise StateError(f"{where}: its per-pixel guard holds values that are not finite or are negative")
+            meta["stopping"] = meta["stopping"] + (guard,)
         samples = meta["samples"]
         if not 1 <= samples <= max_samples:
             raise StateError(f"{where}: it holds {samples} samples per pixel; a state holds 1 to {max_samples:,}")
@@ -253,7 +284,7 @@ def _read_state(fh, where: str, key: RenderKey, max_samples: int) -> Film:
             # Copies: the arrays read lie over the file's bytes, read-only, and the kernels add into them.
             arrays[name] = np.array(_parse_npy(data, name, where, (key.height, key.width) + tail, kind), order="C")
     _check_sums(arrays, samples, where)
-    return Film(samples=samples, **arrays)
+    return Film(samples=samples, **arrays, stopping=meta.get("stopping"))
 
 
 def _check_sums(arrays: dict, samples: int, where: str) -> None:

@@ -138,6 +138,7 @@ class Image:
       the estimate cannot be trusted (rare bright paths dominate it); `noise_estimate`: the whole
       `renderer.film.NoiseEstimate` (with `suspect`, the pixels the warning is about, and
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
+      `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
     - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
@@ -164,6 +165,12 @@ class Image:
         import numpy as np
 
         return np.array(self.array, dtype=dtype, copy=True)
+
+    @property
+    def counts(self) -> "np.ndarray":
+        """Each pixel's sample count (height, width), int64: all `samples` unless adaptive
+        sampling stopped some pixels early."""
+        return self.film.counts
 
     @property
     def width(self) -> int:
@@ -373,6 +380,7 @@ def render(
     seed: Optional[int] = None,
     time: Union[None, float, str] = None,
     noise: Optional[float] = None,
+    adaptive: bool = True,
     integrator: Optional[str] = None,
     sampler: Optional[str] = None,
     max_depth: Optional[int] = None,
@@ -389,7 +397,9 @@ def render(
     `scene`: a file name, a `scenefmt` `Scene`, a dict of a scene's data, or `rt.load`'s result.
     `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis" or "path"), `sampler`
     ("independent" or "sobol") override the file's values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
-    with `spp` then the cap; `overrides` are `--set` arguments; `progress=True` shows the
+    with `spp` then the cap; with `noise`, `adaptive` (the default) spends samples where the
+    noise is (`Image.counts` says how many each pixel took), `adaptive=False` gives every pixel
+    every sample; `overrides` are `--set` arguments; `progress=True` shows the
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
     between passes and ends the render early with what is rendered; `allow_paths`: folders besides
     the scene file's own (the current folder for a dict) that the files it names may be read from.
@@ -452,7 +462,7 @@ def render(
         result = render_scene(
             flat, frame, features_of(graph), target=target, kernel=kernel, threads=threads, connection=connection,
             package=package, progress=bar if bar is not None else (progress or None), max_depth=max_depth, seed=seed,
-            should_stop=should_stop, time_budget=budget, noise_target=noise, notify=notify,
+            should_stop=should_stop, time_budget=budget, noise_target=noise, notify=notify, adaptive=adaptive,
         )
     finally:
         if connection is not None:

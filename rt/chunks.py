@@ -79,6 +79,14 @@ def plan_tiles(width: int, height: int, threads: int) -> list[Tile]:
     ]
 
 
+def tile_sampling(sampling, tile: Tile):
+    """A render's sampling (renderer.sampling.Sampling) as a chunk of `tile` takes it: adaptive
+    sampling's per-pixel guard cut to the tile, whose kernel indexes pixels within the tile."""
+    if sampling.guard.size == 0:
+        return sampling
+    return sampling._replace(guard=np.ascontiguousarray(tile.of(sampling.guard)))
+
+
 def renderer_version() -> str:
     """A name for the renderer's compiled code: the hash of its sources that names the kernel
     cache folder (jit_cache). A worker with other sources would render other bits: it refuses."""

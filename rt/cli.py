@@ -250,6 +250,16 @@ def render(
         None, "--noise", min=0.0, help="Render until the estimated relative RMS noise is below this (0.02 = 2%) at 95% confidence, and not while the estimate warns that rare bright paths make it untrustworthy; --spp is then the cap."
     ),
     noise_map: Optional[Path] = typer.Option(None, "--noise-map", help="Write the per-pixel noise estimate as a PNG."),
+    samples_map: Optional[Path] = typer.Option(
+        None, "--samples-map",
+        help="Write each pixel's sample count: a PNG (grey, white at the most) or .exr/.pfm (the counts themselves).",
+    ),
+    adaptive: bool = typer.Option(
+        True, "--adaptive/--no-adaptive",
+        help="With --noise, spend samples where the noise is (the default): after a uniform pilot of 32 samples per "
+        "pixel, each pixel stops once it has samples in proportion to its own noise; --no-adaptive gives every pixel "
+        "every sample.",
+    ),
     save_state: Optional[Path] = typer.Option(
         None, "--save-state", help="Save the render's sums (.npz) so it can be continued with --resume."
     ),
@@ -301,8 +311,8 @@ def render(
     _check_stdin_use(scenes)
     opts = RenderOptions(
         scene=scenes[0], output=output, hdr=hdr, spp=spp, width=width, max_depth=max_depth, seed=seed, threads=threads,
-        time_budget=time_budget, noise=noise, noise_map=noise_map, save_state=save_state, resume=resume, explain=explain,
-        dry_run=dry_run,
+        time_budget=time_budget, noise=noise, noise_map=noise_map, samples_map=samples_map, adaptive=adaptive,
+        save_state=save_state, resume=resume, explain=explain, dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
         syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
     )

@@ -271,6 +271,11 @@ class ClusterRounds:
         self.watch = WorkerWatch(client)
         return spent
 
+    def set_sampling(self, sampling) -> None:
+        """Chunks submitted from now on render with `sampling` (adaptive sampling's rule, set once
+        its pilot is merged: no chunk past the pilot was submitted before, see the session)."""
+        self.sampling = sampling
+
     def switch_kernel(self, features, notify=None):
         raise NotImplementedError("a cluster render keeps the kernel it started with")
 
@@ -289,7 +294,8 @@ class ClusterRounds:
                                           budget_left, self.width * self.height, self.threads, self.chunk_seconds)
             rounds.plan(size)
         start, count = rounds.range(r)
-        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator, self.sampling)
+        chunk = chunks.Chunk(tiles[i], start, count, self.width, self.seed, self.depth, self.estimator,
+                             chunks.tile_sampling(self.sampling, tiles[i]))
         future = self.client.submit(chunks.render_chunk, self.scene, self.features, chunk, self.latest[i], pure=False,
                                     key=f"rt-chunk-{self.package.key[:8]}-{i}-{r}-{os.urandom(4).hex()}")
         self.running[future] = (i, r)
@@ -349,8 +355,8 @@ class ClusterRounds:
         self.merged += 1
         added = self.rounds.bounds[self.merged] - film.samples
         film.samples = self.rounds.bounds[self.merged]
-        if film.samples >= self.target:
-            self.stop_submitting = True
+        # No round is planned past the session's target of the moment (`_submit`); that target may
+        # move on (adaptive sampling's pilot and checkpoints), so reaching it stops nothing here.
         return Step(added, rays, bad, 0.0)
 
     def advance(self, plan, should_stop=None):

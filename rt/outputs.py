@@ -58,7 +58,8 @@ def needs_exr(path) -> bool:
 
 
 def _outputs(opts: "RenderOptions") -> list[tuple[str, Path]]:
-    named = [("the image", opts.out), ("--hdr", opts.hdr), ("--noise-map", opts.noise_map), ("--save-state", opts.save_state)]
+    named = [("the image", opts.out), ("--hdr", opts.hdr), ("--noise-map", opts.noise_map), ("--samples-map", opts.samples_map),
+             ("--save-state", opts.save_state)]
     return [(what, path) for what, path in named if path is not None]
 
 
@@ -184,6 +185,11 @@ def write_outputs(
         steps.append((opts.hdr, lambda: write_image(opts.hdr, image)))
     if opts.noise_map is not None:
         steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate))))
+    if opts.samples_map is not None:
+        from renderer.sample_counts import sample_count_image
+
+        raw = format_of(opts.samples_map) is not None and format_of(opts.samples_map).role == "hdr"
+        steps.append((opts.samples_map, lambda: write_image(opts.samples_map, sample_count_image(film.counts, raw))))
     for path, step in steps:
         try:
             step()

@@ -133,6 +133,8 @@ class Progress:
         noise = self.noise_text(stats)
         # A noise target's end is unknown until the pilot has measured the noise: no figure rather than a wild one.
         unknown = self.noise and forecast is None and not 0 < stats.noise < float("inf")
+        if getattr(stats, "pixels_done", None) is not None:  # adaptive sampling: the pixels it has stopped
+            noise += f"  {100 * stats.pixels_done:.0f}% of pixels done"
         line = (
             f"[{bar}] {done}/{self.total} spp  {fmt_seconds(stats.seconds)} elapsed  "
             f"ETA {'after the pilot' if unknown else fmt_seconds(eta)}  {stats.rays_per_second / 1e6:.2f} Mrays/s{noise}"

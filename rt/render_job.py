@@ -36,6 +36,8 @@ class RenderOptions:
     time_budget: Optional[str] = None
     noise: Optional[float] = None
     noise_map: Optional[Path] = None
+    samples_map: Optional[Path] = None  # --samples-map: each pixel's sample count (PNG normalised, EXR/PFM raw)
+    adaptive: bool = True  # --no-adaptive: with --noise, every pixel takes every sample
     save_state: Optional[Path] = None
     resume: Optional[Path] = None
     explain: bool = False
@@ -233,18 +235,19 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
     # A dry run writes nothing, so its outputs are not checked (nor a batch's folder made).
     outputs = () if opts.dry_run else ((opts.out, "image"), (opts.hdr, "hdr"), (opts.noise_map, "image"),
-                                       (opts.save_state, "state"))
+                                       (opts.samples_map, "image+hdr"), (opts.save_state, "state"))
     for path, role in outputs:
-        allowed = suffixes_of(role)
+        allowed = sum((suffixes_of(part) for part in role.split("+")), ())
         if path is not None and path.suffix.lower() not in allowed:
             raise fail(f"error: {path}: the file name must end in {' or '.join(allowed)}")
         if path is not None and not (path.parent if str(path.parent) else Path(".")).is_dir():
             raise fail(f"error: {path}: the folder {path.parent} does not exist")
-    if opts.hdr is not None and needs_exr(opts.hdr):
-        from scenefmt.hdr_files import EXR_MISSING, exr_available
+    for name, path in (("--hdr", opts.hdr), ("--samples-map", opts.samples_map)):
+        if path is not None and needs_exr(path):
+            from scenefmt.hdr_files import EXR_MISSING, exr_available
 
-        if not exr_available():
-            raise fail(f"error: --hdr {opts.hdr}: {EXR_MISSING}")
+            if not exr_available():
+                raise fail(f"error: {name} {path}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
@@ -410,8 +413,6 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     budgeted = scene.budget_seconds is not None or opts.noise is not None
     target = sample_target(opts.spp, frame, budgeted)
     if opts.dry_run:
-        from renderer.variants import first_kernel
-
         from .dry_run import dry_run
 
         # Nothing is kept from a dry run: a stop signal ends it at once (StopSignals' first signal, Aborted).
@@ -466,7 +467,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                     flat, frame, features, target=target, kernel=opts.kernel, threads=opts.threads, connection=connection,
                     package=scene.package, progress=bar, max_depth=opts.max_depth, seed=opts.seed, film=film,
                     should_stop=stop.requested, time_budget=scene.budget_seconds, noise_target=opts.noise,
-                    notify=bar.notify,
+                    notify=bar.notify, adaptive=opts.adaptive,
                 )
             except ValueError as exc:
                 raise fail(f"error: {opts.scene}: {exc}")
@@ -496,7 +497,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)
             raise Stop(exc.status)
     total = time.perf_counter() - started
-    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.save_state) if p is not None)
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.samples_map, opts.save_state) if p is not None)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
@@ -510,6 +511,9 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     untrusted = estimate.warning or stats.noise_warning
     if untrusted is not None and film.samples >= 2:
         say(f"warning: {untrusted}", err=True)
+    if stats.pixels_done is not None:
+        say(f"adaptive sampling: {100 * stats.pixels_done:.0f}% of the pixels stopped before {film.samples} spp, "
+            f"{film.counts.mean():.0f} samples per pixel on average", err=True)
     if stats.stop_reason == "time":
         say(f"stopped: the {budget_text(opts.time_budget or '')} time budget is spent", err=True)
     elif stats.stop_reason == "noise":
@@ -530,7 +534,8 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     import dataclasses
     import os
 
-    for name, value in (("--save-state", opts.save_state), ("--resume", opts.resume), ("--noise-map", opts.noise_map)):
+    for name, value in (("--save-state", opts.save_state), ("--resume", opts.resume), ("--noise-map", opts.noise_map),
+                        ("--samples-map", opts.samples_map)):
         if value is not None:
             say(f"error: {name} names one file: render one scene at a time to use it", err=True)
             raise Stop(2)

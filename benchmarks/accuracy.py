@@ -120,10 +120,86 @@ def reported_table(trials) -> list[str]:
     return lines
 
 
+# The adaptive study: a noise target every scene reaches at 48 px in seconds, and the cap for those lit
+# through rare paths (which do not reach it in any sensible time); seeds per scene.
+ADAPTIVE_TARGET = 0.02
+ADAPTIVE_CAP = 4096
+ADAPTIVE_SEEDS = 2
+
+
+def adaptive_runs(graphs) -> dict:
+    """Per scene and seed: a render toward ADAPTIVE_TARGET as `rt render --noise` renders it (adaptive
+    sampling on), with the first forecast its session made after the pilot; a uniform render of the same
+    seconds with each sampler; the true errors against the converged reference."""
+    from renderer.compile import with_sampler
+    from renderer.render import render
+
+    from tests.renderer.converged import load_reference, true_error
+
+    runs = {}
+    for name, (_graph, small) in graphs.items():
+        ref = load_reference(name)
+        rows = []
+        for index in range(ADAPTIVE_SEEDS):
+            seed = 9000 + index
+            first = []
+
+            def keep_first(stats, first=first):
+                if not first and getattr(stats, "forecast", None) is not None:
+                    first.append((stats.forecast, stats.seconds))
+
+            ada = render(small, samples=ADAPTIVE_CAP, seed=seed, noise_target=ADAPTIVE_TARGET, adaptive=True,
+                         kernel=KERNEL, progress=keep_first)
+            seconds = ada.stats.seconds
+            uniform = render(small, samples=ADAPTIVE_CAP, seed=seed, time_budget=seconds, kernel=KERNEL)
+            sobol = render(with_sampler(small, "sobol"), samples=ADAPTIVE_CAP, seed=seed, time_budget=seconds, kernel=KERNEL)
+            sobol_ada = render(with_sampler(small, "sobol"), samples=ADAPTIVE_CAP, seed=seed, time_budget=seconds,
+                               noise_target=ADAPTIVE_TARGET / 4, adaptive=True, kernel=KERNEL)
+            rows.append({"seconds": seconds, "samples": float(ada.film.counts.mean()), "stop": ada.stats.stop_reason,
+                         "forecast": first[0] if first else None,
+                         "error": true_error(ada.film.mean(), ref), "uniform": true_error(uniform.film.mean(), ref),
+                         "sobol": true_error(sobol.film.mean(), ref), "sobol_adaptive": true_error(sobol_ada.film.mean(), ref)})
+        runs[name] = rows
+    return runs
+
+
+_ADAPTIVE_RUNS: dict = {}
+
+
+def adaptive_runs_once(graphs) -> dict:
+    """`adaptive_runs`, rendered once for the two sections that read them."""
+    if not _ADAPTIVE_RUNS:
+        _ADAPTIVE_RUNS.update(adaptive_runs(graphs))
+    return _ADAPTIVE_RUNS
+
+
 def forecast_section(graphs, results) -> list[str]:
-    """Hook (issue 32, filled after the merges): the forecast of the time to a noise target against
-    the time the render took, per scene. Returns the section's lines; none until it is measured."""
-    return []
+    """The forecast of the time to a noise target against the time the render took, per scene: the
+    first forecast the render's session made after its pilot (what the progress line says), the
+    samples and seconds it took."""
+    runs = adaptive_runs_once(graphs)
+    lines = ["## The forecast against the time taken",
+             "",
+             f"Each scene at {WIDTH} px toward {100 * ADAPTIVE_TARGET:g}% noise with adaptive sampling (as `rt render --noise "
+             f"{ADAPTIVE_TARGET:g}` renders; capped at {ADAPTIVE_CAP} spp), {ADAPTIVE_SEEDS} seeds: the first forecast after the "
+             "pilot (renderer/forecast.py) with its 95% range, against what the render took. Renders of a fraction of a "
+             "second are timed poorly on a shared machine: the samples' forecast is the firmer figure. "
+             "[forecast.md](forecast.md) measures it at 200 px on five scenes.",
+             "",
+             "| scene | seed | forecast: mean spp (range) | took | forecast: seconds (range) | took | stopped on | held |",
+             "|---|---|---|---|---|---|---|---|"]
+    for name, rows in runs.items():
+        for index, row in enumerate(rows):
+            found = row["forecast"]
+            if found is None:
+                lines.append(f"| {name} | {index} | (ended before its pilot) | {row['samples']:.0f} | - | {row['seconds']:.2f} | "
+                             f"{row['stop']} | - |")
+                continue
+            f, _at = found
+            held = "yes" if f.seconds_low <= row["seconds"] <= f.seconds_high else "no"
+            lines.append(f"| {name} | {index} | {f.samples:.0f} ({f.samples_low:.0f}-{f.samples_high:.0f}) | {row['samples']:.0f} | "
+                         f"{f.seconds:.2f} ({f.seconds_low:.2f}-{f.seconds_high:.2f}) | {row['seconds']:.2f} | {row['stop']} | {held} |")
+    return lines
 
 
 # The sampler study: sample counts and seeds per sampler and scene (each seed's true error against the
@@ -173,9 +249,30 @@ def sampler_gain_section(graphs, results) -> list[str]:
 
 
 def adaptive_gain_section(graphs, results) -> list[str]:
-    """Hook (issue 32, filled after the merges): adaptive sampling's error against uniform sampling's
-    at equal time, per scene. Returns the section's lines; none until it is measured."""
-    return []
+    """Adaptive sampling, and the Sobol sampler with it, against uniform sampling with independent numbers
+    at equal time, per scene (the renders of `adaptive_runs`)."""
+    runs = adaptive_runs_once(graphs)
+    lines = ["## Adaptive sampling at equal time",
+             "",
+             f"The renders of the forecast's table: adaptive sampling toward {100 * ADAPTIVE_TARGET:g}% (docs/adaptive.md), "
+             "then uniform renders of the same seconds (`--time`): with the independent sampler, with Sobol, and Sobol with "
+             "adaptive sampling (a lower target, so that the time decides). *Gain* is the uniform independent render's true "
+             f"error over the other's (RMS over {ADAPTIVE_SEEDS} seeds). Scenes whose noise is even gain nothing from "
+             "adaptive sampling; those with flat and noisy parts (a lamp's edge, smoke, a dark background) gain most. "
+             "`benchmarks/adaptive_gain.py` measures it with more seeds on four scenes.",
+             "",
+             "| scene | seconds | mean spp | true error, uniform | gain: adaptive | gain: Sobol | gain: Sobol + adaptive |",
+             "|---|---|---|---|---|---|---|"]
+
+    def rms(rows, key):
+        return math.sqrt(sum(r[key] ** 2 for r in rows) / len(rows))
+
+    for name, rows in runs.items():
+        uniform = rms(rows, "uniform")
+        gains = [uniform / rms(rows, key) if rms(rows, key) > 0 else float("nan") for key in ("error", "sobol", "sobol_adaptive")]
+        lines.append(f"| {name} | {sum(r['seconds'] for r in rows) / len(rows):.2f} | {sum(r['samples'] for r in rows) / len(rows):.0f} | "
+                     f"{uniform:.4f} | " + " | ".join(f"{g:.2f}x" for g in gains) + " |")
+    return lines
 
 
 def depth_study(graph_small, reference):

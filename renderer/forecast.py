@@ -20,6 +20,8 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from .quantiles import chi2_quantile
+
 # A forecast waits for this many samples per pixel of the render (two rounds of the eight
 # interleaved batches: the batch estimate needs a full round, and one round is noisy), or for
 # PILOT_SECONDS of rendering with at least PILOT_LEAST_SAMPLES, whichever comes first.
@@ -132,33 +134,6 @@ def forecast(reading: Reading, *, cap: float, noise_target: Optional[float] = No
     return Forecast(stop, samples, min(c[0] for c in corners), max(c[0] for c in corners),
                     seconds, min(c[1] for c in corners), max(c[1] for c in corners),
                     noise, min(c[2] for c in corners), max(c[2] for c in corners), reading.warning)
-
-
-def chi2_quantile(p: float, dof: float) -> float:
-    """The p-quantile of the chi-square distribution with `dof` degrees of freedom (Wilson and
-    Hilferty's cube-root normal approximation: within 1% for 5 or more degrees of freedom, which
-    the pooled estimates here always have; numpy has no chi-square quantile of its own)."""
-    z = _normal_quantile(p)
-    k = max(dof, 1e-9)
-    return k * max(0.0, 1 - 2 / (9 * k) + z * math.sqrt(2 / (9 * k))) ** 3
-
-
-def _normal_quantile(p: float) -> float:
-    """The standard normal p-quantile (Acklam's rational approximation, relative error < 1.2e-9)."""
-    a = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02, 1.383577518672690e02,
-         -3.066479806614716e01, 2.506628277459239e00)
-    b = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02, 6.680131188771972e01, -1.328068155288572e01)
-    c = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00, -2.549732539343734e00,
-         4.374664141464968e00, 2.938163982698783e00)
-    d = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
-    if p < 0.02425:
-        q = math.sqrt(-2 * math.log(p))
-        return (((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]) / ((((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1)
-    if p > 1 - 0.02425:
-        return -_normal_quantile(1 - p)
-    q = p - 0.5
-    r = q * q
-    return (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q / (((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1)
 
 
 def pooled_interval(variances: np.ndarray, dof: float, confidence: float = CONFIDENCE) -> tuple[float, float]:

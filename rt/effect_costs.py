@@ -204,17 +204,21 @@ def measure(graph, kernel, *, seconds: float, max_depth: Optional[int] = None, s
     from renderer.film import Film
     from renderer.flat import Frame
     from renderer.local_passes import LocalPasses
-    from renderer.session import render_progressively
     from renderer import target as kernel_target
+    from renderer.session import render_progressively
+    from renderer.variants import GENERAL, features_of
 
     frame = Frame.of(graph)
     flat = compile_scene(graph)
+    needed = features_of(graph)
+    if not kernel.covers(needed):  # a variant that needs a path the scene's kernel lacks: the general one has it
+        kernel = GENERAL
     before = kernel_target.thread_count()
     try:
         if threads is not None:
             kernel_target.set_thread_count(threads)
         executor = LocalPasses.for_frame(flat, frame, seed=seed, max_depth=max_depth)
-        result = render_progressively(executor, Film.empty(frame.width, frame.height), target=1_000_000,
+        result = render_progressively(executor, Film.empty(frame.width, frame.height), target=1_000_000, needed=needed,
                                       features=kernel, kernel="general", time_budget=seconds)
     finally:
         kernel_target.set_thread_count(before)

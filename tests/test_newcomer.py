@@ -114,8 +114,14 @@ def test_a_state_cut_short_or_damaged_is_refused_in_one_line(saved_state):
     (saved_state / "cut.npz").write_bytes(cut)
     out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "cut.npz", "-o", "cut.png", cwd=saved_state)
     _refused(out, "cut.npz: not a saved render state, or one cut short")
-    middle = len(data) // 3  # inside the first array's data: the member's checksum fails
-    bad = data[:middle] + bytes(64) + data[middle + 64:]
+    # Inside the data of the sums of samples (nonzero after a render; other arrays hold zeros that zeros would not
+    # damage): the member's checksum fails.
+    import io
+    import zipfile
+
+    member = zipfile.ZipFile(io.BytesIO(data)).getinfo("total.npy")
+    middle = member.header_offset + 30 + len(member.filename) + member.file_size // 2
+    bad = data[:middle] + bytes([0xA5]) * 64 + data[middle + 64:]
     (saved_state / "bad.npz").write_bytes(bad)
     out = run_rt("render", "a.yaml", "--spp", "2", "--resume", "bad.npz", "-o", "bad.png", cwd=saved_state)
     _refused(out, "bad.npz: the member 'total.npy' cannot be read")

@@ -25,7 +25,7 @@ from renderer.shapes.spheres import sample_cone
 from renderer.shapes import PRIM_KIND
 from renderer.shapes.dispatch import surface
 from renderer.environment import environment_radiance, sample_environment
-from renderer.numerics.rng import bounce_dim, light_dim, path_key, uniform
+from renderer.numerics.rng import bounce_dim, independent_key, light_dim, path_key, uniform
 from renderer.materials import (MATERIAL_F, MATERIAL_I, NO_PARAMETERS, NO_TANGENT, emits, emitted, eval_bsdf, has_density, pdf_bsdf,
                                 random_unit_vector, sample_bsdf)
 from renderer.media import medium_hit
@@ -195,7 +195,7 @@ def _stacks():
 def _hit(S, p, d, time, stack, tstack):
     """(prim, inst, point, unit normal) of the first surface along p + t d; prim -1 if none."""
     t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
-                                    S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, p, d, 0.0, math.inf, time, np.uint64(1), 0, stack, tstack)
+                                    S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, p, d, 0.0, math.inf, time, independent_key(1), 0, stack, tstack)
     if prim < 0:
         return prim, inst, p, p
     kind = S.prims_i[prim, PRIM_KIND]
@@ -307,7 +307,7 @@ def line_crossings(S, centre, radius, dirs, offsets):
         t = 0.0
         while out[k] < 64:
             t_hit, prim, _ = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
-                                             S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, t, 4.0 * radius, 0.0, np.uint64(1), 0,
+                                             S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, t, 4.0 * radius, 0.0, independent_key(1), 0,
                                              stack, tstack)
             if prim < 0:
                 break

@@ -8,6 +8,7 @@ import numpy as np
 from renderer import target
 
 from renderer.materials import has_shading_map, shading_frame
+from renderer.numerics.rng import independent_key
 from renderer.numerics.vec import dot, neg, unit, xform_normal, xform_point, xform_vector
 from renderer.shapes.dispatch import hit_material, interaction, world_derivatives
 from renderer.trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
@@ -26,7 +27,7 @@ def _shading_at(S, origins, dirs, stack, tstack):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
         t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
-                                        S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, 0.0, math.inf, 0.0, np.uint64(1), 0,
+                                        S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, 0.0, math.inf, 0.0, independent_key(1), 0,
                                         stack, tstack)
         if prim < 0:
             continue

@@ -87,9 +87,11 @@ class Cost:
                 f"(so x{self.time_to_noise:.2f} the time to the same noise), {what}")
 
 
-def _without_media(graph):
-    """The graph with every medium taken out: a boundary with a material keeps it, one without goes."""
-    from scenefmt.graph import GroupNode, InstanceNode, ShapeNode
+def _with_members(graph, member, **changes):
+    """The graph with every member of every group (the root, named groups, those instances place)
+    replaced by `member(m)` (a list of members, maybe empty), each group copied once however often it
+    is placed; `changes` replace other fields of the graph."""
+    from scenefmt.graph import GroupNode, InstanceNode
 
     copies: dict[int, GroupNode] = {}
 
@@ -98,17 +100,26 @@ def _without_media(graph):
             return copies[id(g)]
         new = copies[id(g)] = dataclasses.replace(g, members=[])
         for m in g.members:
-            if isinstance(m, ShapeNode) and m.interior is not None:
-                if m.material is not None:
-                    new.members.append(dataclasses.replace(m, interior=None))
-            elif isinstance(m, InstanceNode):
+            if isinstance(m, InstanceNode):
                 new.members.append(dataclasses.replace(m, group=group(m.group)))
             else:
-                new.members.append(m)
+                new.members.extend(member(m))
         return new
 
     root = group(graph.root)
-    return dataclasses.replace(graph, root=root, groups=[copies.get(id(g), g) for g in graph.groups], media=[])
+    return dataclasses.replace(graph, root=root, groups=[copies.get(id(g), g) for g in graph.groups], **changes)
+
+
+def _without_media(graph):
+    """The graph with every medium taken out: a boundary with a material keeps it, one without goes."""
+    from scenefmt.graph import ShapeNode
+
+    def member(m):
+        if isinstance(m, ShapeNode) and m.interior is not None:
+            return [dataclasses.replace(m, interior=None)] if m.material is not None else []
+        return [m]
+
+    return _with_members(graph, member, media=[])
 
 
 # A glossy material made matte keeps its colour, at most this albedo (a white tint would make a
@@ -136,7 +147,7 @@ def _matte_of(material):
 def _without_glossy(graph):
     """The graph with every glossy material (conductors, rough and thin glass, plastics, principled
     materials) made a matte surface of its colour."""
-    from scenefmt.graph import GroupNode, InstanceNode, ShapeNode, SphereRunNode
+    from scenefmt.graph import ShapeNode, SphereRunNode
 
     mattes: dict[int, object] = {}
 
@@ -147,26 +158,14 @@ def _without_glossy(graph):
             mattes[id(material)] = _matte_of(material)
         return mattes[id(material)]
 
-    copies: dict[int, GroupNode] = {}
+    def member(m):
+        if isinstance(m, ShapeNode):
+            return [dataclasses.replace(m, material=matte(m.material))]
+        if isinstance(m, SphereRunNode):
+            return [dataclasses.replace(m, materials=[matte(x) for x in m.materials])]
+        return [m]
 
-    def group(g: GroupNode) -> GroupNode:
-        if id(g) in copies:
-            return copies[id(g)]
-        new = copies[id(g)] = dataclasses.replace(g, members=[])
-        for m in g.members:
-            if isinstance(m, ShapeNode):
-                new.members.append(dataclasses.replace(m, material=matte(m.material)))
-            elif isinstance(m, SphereRunNode):
-                new.members.append(dataclasses.replace(m, materials=[matte(x) for x in m.materials]))
-            elif isinstance(m, InstanceNode):
-                new.members.append(dataclasses.replace(m, group=group(m.group)))
-            else:
-                new.members.append(m)
-        return new
-
-    root = group(graph.root)
-    return dataclasses.replace(graph, root=root, groups=[copies.get(id(g), g) for g in graph.groups],
-                               materials=[matte(m) for m in graph.materials])
+    return _with_members(graph, member, materials=[matte(m) for m in graph.materials])
 
 
 def variants(graph, max_depth: int) -> list[Variant]:

@@ -10,44 +10,9 @@ import math
 
 import numpy as np
 
+from renderer.quantiles import gamma_q
+
 ALPHA = 1e-3  # significance of every check unless a test says otherwise
-
-
-def gamma_q(a: float, x: float) -> float:
-    """Regularised upper incomplete gamma function Q(a, x) (Numerical Recipes, 6.2)."""
-    if x <= 0.0:
-        return 1.0
-    log_front = -x + a * math.log(x) - math.lgamma(a)
-    if x < a + 1.0:
-        # Series for P(a, x), then Q = 1 - P.
-        term = total = 1.0 / a
-        ap = a
-        for _ in range(100_000):
-            ap += 1.0
-            term *= x / ap
-            total += term
-            if abs(term) < abs(total) * 1e-16:
-                break
-        return max(0.0, 1.0 - total * math.exp(log_front))
-    # Continued fraction for Q (modified Lentz).
-    tiny = 1e-300
-    b = x + 1.0 - a
-    c = 1.0 / tiny
-    d = 1.0 / b
-    h = d
-    for i in range(1, 100_000):
-        an = -i * (i - a)
-        b += 2.0
-        d = an * d + b
-        d = tiny if abs(d) < tiny else d
-        c = b + an / c
-        c = tiny if abs(c) < tiny else c
-        d = 1.0 / d
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < 1e-16:
-            break
-    return math.exp(log_front) * h
 
 
 def chi2_sf(x: float, dof: int) -> float:

@@ -109,6 +109,21 @@ def predicted_error(sigma2: np.ndarray, threshold: float, floor: int, cap: int) 
     return float(np.mean(sigma2 / n))
 
 
+def predicted_counts(film) -> Optional[np.ndarray]:
+    """The samples each pixel is expected to hold when the render ends, by the film's stopping rule
+    (`film.stopping`, fixed after the pilot) and the pilot's spreads, as `threshold_for` predicted
+    them: the samples a pixel holds already, at least. None without a rule that stops pixels."""
+    if film.stopping is None or not film.stopping[0] > 0:
+        return None
+    threshold, floor, _tail, guard = film.stopping
+    sigma2 = pilot_variance(film)
+    if guard is not None and np.size(guard):
+        sigma2 = np.maximum(sigma2, guard)
+    stops = np.sqrt(sigma2) / threshold
+    expected = np.clip(BATCHES * np.ceil(stops / BATCHES), floor, None)
+    return np.maximum(expected, film.counts)
+
+
 def pilot_variance(film) -> np.ndarray:
     """Each pixel's variance of one sample (h, w), channels averaged, from its batch means."""
     return pixel_mean_variance(film.batch, film.counts) * np.maximum(film.counts, 1)

@@ -285,6 +285,25 @@ class ForecastTracker:
         return self.forecast
 
 
+def adaptive_forecast(f: Forecast, counts: np.ndarray, held: np.ndarray, cap: int, elapsed: float,
+                      sample_seconds: float) -> Forecast:
+    """The forecast `f` (made as for uniform sampling) for an adaptive render whose pixels are expected
+    to end holding `counts` samples (adaptive_plan.predicted_counts) and hold `held` now: the samples
+    are their mean, the seconds those still to render at `sample_seconds` per sample of every pixel,
+    after the `elapsed` ones; both ranges keep the uniform forecast's relative width."""
+    import dataclasses
+
+    counts = np.minimum(counts, cap)
+    mean = float(np.mean(counts))
+    seconds = elapsed + float(np.mean(np.maximum(counts - held, 0))) * sample_seconds
+    wide = (lambda value, low, high, of: (value * low / of if of > 0 else value, value * high / of if of > 0 else value))
+    samples_low, samples_high = wide(mean, f.samples_low, f.samples_high, f.samples)
+    seconds_low, seconds_high = wide(seconds, f.seconds_low, f.seconds_high, f.seconds)
+    return dataclasses.replace(f, stop="noise", samples=mean, samples_low=min(mean, samples_low),
+                               samples_high=min(float(cap), max(mean, samples_high)), seconds=seconds,
+                               seconds_low=max(elapsed, min(seconds, seconds_low)), seconds_high=max(seconds, seconds_high))
+
+
 def shifted(f: Forecast, seconds: float) -> Forecast:
     """The forecast with `seconds` added to each of its times (clamped at 0)."""
     import dataclasses

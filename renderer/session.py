@@ -290,9 +290,9 @@ def render_progressively(
                 if stats.first_pass_seconds == 0.0:
                     stats.first_pass_seconds = stats.seconds
                 if run is not None:
-                    reached, last_noise = _adaptive_progress(run, executor, film, stats, progress, last_noise, prior)
-                    if tracker is not None:
-                        stats.forecast = tracker.update(film, stats.seconds, step.samples, step.seconds)
+                    reached, last_noise = _adaptive_progress(run, executor, film, stats, progress, last_noise, prior,
+                                                             lambda: _adaptive_forecast(tracker, film, stats, step, target)
+                                                             if tracker is not None else None)
                 else:
                     reached, last_noise = report_progress(film, stats, progress, noise_target, last_noise, trend, stop_on_noise,
                                                           prior, tracker, step)
@@ -331,6 +331,23 @@ def render_progressively(
     return RenderResult(film, stats)
 
 
+def _adaptive_forecast(tracker: ForecastTracker, film: Film, stats: RenderStats, step, cap: int):
+    """The forecast of an adaptive render: the tracker's (as for uniform sampling) until the stopping
+    rule is fixed, then the samples that rule is expected to leave each pixel holding, at the speed of
+    a sample of every pixel."""
+    from .adaptive_plan import predicted_counts
+    from .forecast import adaptive_forecast
+
+    found = tracker.update(film, stats.seconds, step.samples, step.seconds)
+    counts = predicted_counts(film)
+    if found is None or counts is None:
+        return found
+    # A sample index costs less as pixels stop: the speed of a sample of every pixel is the recent
+    # speed over the share of pixels still rendering.
+    live = max(0.05, 1.0 - float(film.done.mean()))
+    return adaptive_forecast(found, counts, film.counts, cap, stats.seconds, tracker.recent_sample_seconds() / live)
+
+
 def _adaptive_run(executor, film: Film, noise_target: Optional[float], target: int):
     """The adaptive sampling of a render toward `noise_target` (None without one), with the
     executor set to the film's stopping rule when it continues a render that has one."""
@@ -346,7 +363,7 @@ def _adaptive_run(executor, film: Film, noise_target: Optional[float], target: i
 
 
 def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, last_noise: float,
-                       prior: Optional[RarePathPrior] = None) -> tuple[bool, float]:
+                       prior: Optional[RarePathPrior] = None, forecast=None) -> tuple[bool, float]:
     """`report_progress` of an adaptive render: once the pilot is in, the stopping rule is fixed
     and handed to the executor; the image's estimate is made at the checkpoints, where the render
     may stop on it (the upper end of its interval at the target, no warning: as `NoiseTarget`,
@@ -375,6 +392,8 @@ def _adaptive_progress(run, executor, film: Film, stats: RenderStats, progress, 
         stats.noise = relative_noise(film)
         last_noise = now
     stats.pixels_done = run.share_done(film)
+    if forecast is not None:  # after the rule is fixed, so the forecast counts the samples it will take
+        stats.forecast = forecast()
     if progress is not None:
         progress(stats)
     return run.finished(film, estimate, stats.noise_warning), last_noise

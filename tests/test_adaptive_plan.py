@@ -255,3 +255,28 @@ def test_a_quiet_pixel_beside_noisy_ones_is_judged_by_their_spread_too():
     guard = film.stopping[3]
     assert (guard[:, 4] > 0.1 * 1.0 * GUARD_SHARE).all() and (guard[:, 1] < 0.01).all()
     assert film.counts[:, 4].min() > film.counts[:, 1].max()
+
+
+def test_the_forecast_of_an_adaptive_render_counts_the_samples_its_rule_will_take():
+    """Once the rule is fixed, the forecast says the samples the pixels are expected to end with (not
+    a uniform render's), and the render's mean samples come within its range (NumpyPasses: noisy half,
+    quiet half)."""
+    from renderer.adaptive_plan import predicted_counts
+
+    seen = []
+    executor = NumpyPasses(sigmas())
+    film = Film.empty(W, H)
+
+    def keep(stats):
+        if film.stopping is not None and stats.forecast is not None and not seen:
+            seen.append((stats.forecast, predicted_counts(film).copy()))
+
+    result = render_progressively(executor, film, target=5000, kernel="general", noise_target=0.02, adaptive=True,
+                                  progress=keep)
+    assert seen, "no forecast after the stopping rule was fixed"
+    forecast, predicted = seen[0]
+    assert forecast.samples == pytest.approx(float(predicted.mean()))
+    assert predicted.min() >= FLOOR and predicted[:, W // 2:].mean() > 4 * predicted[:, : W // 2 - 1].mean()
+    took = float(film.counts.mean())
+    assert result.stats.stop_reason == "noise"
+    assert 0.6 * forecast.samples <= took <= 1.2 * forecast.samples, (forecast.samples, took)

@@ -33,6 +33,7 @@ from typing import Optional
 import numpy as np
 
 from .config import BATCHES
+from .error_estimate import batch_variance
 from .film import estimate_noise
 from .rare_paths import image_mean
 from .sampling import Sampling
@@ -80,14 +81,10 @@ def is_checkpoint(samples: int) -> bool:
 
 def pixel_mean_variance(batch: np.ndarray, counts: np.ndarray) -> np.ndarray:
     """The variance of each pixel's mean (h, w), averaged over channels, from its batch sums
-    `batch` (h, w, BATCHES, 3) and its sample counts (h, w): the spread of the batch means over
-    BATCHES (BATCHES - 1). A batch of a pixel holding n samples has (n - k + BATCHES - 1) //
-    BATCHES of them (sample s is in batch s % BATCHES)."""
-    k = np.arange(BATCHES)
-    sizes = np.maximum((counts[:, :, None] - k + BATCHES - 1) // BATCHES, 1)  # (h, w, B)
-    means = batch / sizes[:, :, :, None]
-    spread = means - means.mean(axis=2, keepdims=True)
-    return np.square(spread).sum(axis=(2, 3)) / (3.0 * BATCHES * (BATCHES - 1))
+    `batch` (h, w, BATCHES, 3) and its sample counts (h, w): the error estimate's spread of the
+    batch means (error_estimate.batch_variance), whose sums are those of the batches."""
+    total = batch.sum(axis=2)
+    return batch_variance(batch, total, np.maximum(counts, 1)).var.mean(axis=2)
 
 
 def neighbourhood_guard(sigma2: np.ndarray) -> np.ndarray:

@@ -396,7 +396,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     )
     env_tables, env_power = environment.environment_tables(flat, walk.graph)
     flat = flat._replace(**env_tables)
-    return flat._replace(**lights.light_tables(flat, env_power))
+    return flat._replace(**lights.light_tables(flat, env_power, walk.graph))
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

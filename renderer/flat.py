@@ -55,6 +55,11 @@ class FlatScene(NamedTuple):
     light_f: np.ndarray  # LIGHT_F
     inst_light: np.ndarray  # (I,) int32
     prim_light: np.ndarray  # (P,) int32, -1 where the primitive does not emit
+    # The light tree (light_tree.py): nodes over the lights' bounds, orientations and power, which
+    # choose a light as seen from the shading point; empty (no rows) where the scene has too few
+    # lights for a tree to pay, and the choice is by power alone.
+    ltree_f: np.ndarray  # light_tree.LTREE_F
+    ltree_i: np.ndarray  # light_tree.LTREE_I
     # Environment map (environment.py): its radiance by texel, row 0 at the top, and the tables
     # that sample it by brightness; empty unless the background is an image.
     env_rgb: np.ndarray  # (H * W, 3) float32 linear RGB, strength applied

@@ -11,9 +11,10 @@ Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
   similarity by the cone it subtends, a rectangular quad near the shading point by the solid
   angle it subtends (FAR_RECTANGLE), anything else uniformly on its surface, whose density per
   world area is the tree-space density times the map's area ratio at that normal.
-- POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT: codes reserved. A new kind is a model, a module
-  with its flattening and its two kernels (a sample and its density), and one case in
-  `sample_li`, `pdf_li` and `light_tables` below; the integrator does not change.
+- POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py) and SUN_LIGHT (sun.py): lights that are
+  no shape, made from the scene's `lights:` and its sun. A kind is a model, a module with its
+  flattening and its two kernels (a sample and its density), and one case in `sample_li`,
+  `pdf_li` and `light_tables` below; the integrator does not change.
 
 One selection step sees every light (`select_light`): one power distribution. The map, when
 there is one that sends light, is row 0 and is chosen with probability `choose`, its share of
@@ -26,13 +27,19 @@ binary search of its cdf (`light_f.cdf`, over those rows only) with u0 rescaled 
 
 The integrator asks two things, and never which kind answers:
 
-- `sample_li(S, p, time, u0, u1, u2)`: a light chosen, then a point on it (or a direction to
-  it): (ok, point or direction, unit direction wi, distance to cast the shadow ray to (inf for a
-  light at infinity), solid angle density including the choice, emitted radiance).
-- `pdf_li(S, light, p, x, n, time)`: the density `sample_li` from p gives light row `light` at
-  point x with normal n (a direction x for a light at infinity), for the weight of a BSDF-sampled
-  hit (`light_of_hit`). A ray that meets nothing asks `radiance_escaped`, which gives the
-  background's radiance along it and this density at once (one map lookup for both).
+- `sample_li(S, p, n, time, u0, u1, u2)`: a light chosen for shading point p with normal n
+  ((0, 0, 0) in a medium), then a point on it (or a direction to it): (ok, point or direction,
+  unit direction wi, distance to cast the shadow ray to (inf for a light at infinity), solid
+  angle density including the choice, emitted radiance, whether the light is a delta).
+- `pdf_li(S, light, p, n_p, x, n, time)`: the density `sample_li` from p gives light row `light`
+  at point x with normal n (a direction x for a light at infinity), for the weight of a
+  BSDF-sampled hit (`light_of_hit`). A ray that meets nothing asks `radiance_escaped`, which
+  gives the background's radiance along it already weighted against every light at infinity
+  that could have given its direction (`bsdf_weight`, the power heuristic).
+
+A kind's sampler takes the pmf of its choice within its group from `select_light`: by power
+from the cdf, or from a light tree that weighs lights as seen from p (`light_pmf` gives it again
+for `pdf_li`).
 
 Emission is two-sided (the books' diffuse light), so the conversion to solid angle takes the
 absolute cosine at the light.
@@ -63,12 +70,12 @@ from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_W
 # Kinds of light (light_i.kind).
 ENVIRONMENT_LIGHT = 0  # the image background, at infinity (environment.py)
 AREA_LIGHT = 1  # an emitting shape placed by an instance (below, sampled by its shape family)
-# Reserved for the lights to come; each will be one case in sample_li, pdf_li and flatten.
-POINT_LIGHT = 2
-SPOT_LIGHT = 3
-DIRECTIONAL_LIGHT = 4
+POINT_LIGHT = 2  # a point, or a small sphere that no ray meets (punctual.py)
+SPOT_LIGHT = 3  # a point sending light in a cone (punctual.py)
+DIRECTIONAL_LIGHT = 4  # parallel light from one direction at infinity (punctual.py)
+SUN_LIGHT = 5  # a disc at infinity of small angular size, met by rays that escape (sun.py)
 KINDS = {ENVIRONMENT_LIGHT: "environment", AREA_LIGHT: "area", POINT_LIGHT: "point", SPOT_LIGHT: "spot",
-         DIRECTIONAL_LIGHT: "directional"}
+         DIRECTIONAL_LIGHT: "directional", SUN_LIGHT: "sun"}
 
 # How an area light's points are drawn (light_i.strategy).
 BY_AREA = 0  # uniform on the surface
@@ -76,10 +83,11 @@ BY_CONE = 1  # a sphere under a similarity: uniform in the cone it subtends wher
 BY_RECTANGLE = 2  # a rectangular quad under a similarity: uniform in the solid angle it subtends
 
 LIGHT_I = Layout("light_i", "int32", [
-    Column("kind", 1, "ENVIRONMENT_LIGHT (row 0 when present), AREA_LIGHT; POINT_LIGHT, SPOT_LIGHT and DIRECTIONAL_LIGHT reserved"),
+    Column("kind", 1, "ENVIRONMENT_LIGHT (row 0 when present), AREA_LIGHT, POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT or SUN_LIGHT"),
     Column("instance", 1, "area light: row of inst_i that places the light's tree"),
     Column("primitive", 1, "area light: row of prims_i of the emitting primitive"),
     Column("strategy", 1, "area light: BY_AREA, BY_CONE or BY_RECTANGLE"),
+    Column("tree_leaf", 1, "with a light tree: the node of light_tree that holds this light; -1 for a light the tree does not choose"),
 ])
 LIGHT_F = Layout("light_f", "float64", [
     Column("cdf", 1, "the map: choose; any other light: probability of choosing it or one before it among the lights after the map (the last row is 1)"),
@@ -88,10 +96,21 @@ LIGHT_F = Layout("light_f", "float64", [
     Column("edge_u", 3, "area light: a quad's, triangle's, disk's or mesh triangle's first edge (a disk's first radius), in the tree's space"),
     Column("edge_v", 3, "area light: the second edge"),
     Column("corner", 3, "area light: a mesh triangle's first corner (other shapes read theirs from prims_f)"),
+    Column("position", 3, "point and spot light: where it is (world)"),
+    Column("direction", 3, "spot light: the unit direction of its axis; directional and sun light: the unit direction from the scene toward the light"),
+    Column("radiance", 3, "point and spot light: intensity per solid angle (linear RGB); directional light: irradiance on a surface facing it; sun light: radiance of its disc"),
+    Column("size", 1, "point light: the radius of the sphere it is sampled as (0: a point); sun light: the cosine of the disc's angular radius"),
+    Column("cos_cutoff", 1, "spot light: cosine of the angle past which it sends nothing"),
+    Column("cutoff", 1, "spot light: that angle, in radians"),
+    Column("beam", 1, "spot light: the angle within which it sends its full intensity, in radians (the profile ramps linearly in angle from beam to cutoff)"),
+    Column("power", 1, "the light's power as its choice weighs it (luminance of the flux it sends into the scene)"),
 ])
-LIGHT_KIND, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY = LIGHT_I.offsets("kind", "instance", "primitive", "strategy")
+LIGHT_KIND, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY, LIGHT_TREE_LEAF = LIGHT_I.offsets(
+    "kind", "instance", "primitive", "strategy", "tree_leaf")
 LIGHT_CDF, LIGHT_PMF, LIGHT_AREA, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNER = LIGHT_F.offsets(
     "cdf", "pmf", "area", "edge_u", "edge_v", "corner")
+LIGHT_POSITION, LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_BEAM, LIGHT_POWER = LIGHT_F.offsets(
+    "position", "direction", "radiance", "size", "cos_cutoff", "cutoff", "beam", "power")
 
 # The least and most share of light samples the map gets when other lights are present too.
 MIN_CHOOSE = 0.1
@@ -107,36 +126,54 @@ GRAZING = 1e-10
 def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
     """The light tables of a scene without lights."""
     return {"light_i": LIGHT_I.array(0), "light_f": LIGHT_F.array(0), "inst_light": np.zeros(instances, np.int32),
-            "prim_light": np.full(prims, -1, np.int32)}
+            "prim_light": np.full(prims, -1, np.int32), "ltree_f": np.zeros((0, 1)), "ltree_i": np.zeros((0, 1), np.int32)}
 
 
-def light_tables(flat, env_power: float) -> dict[str, np.ndarray]:
-    """The light tables of flat scene `flat`, whose environment map (if any) sends the radiance
-    `env_power` integrated over the sphere (environment.environment_tables's): `light_i`, `light_f`,
-    `inst_light` (each instance's first area light row) and `prim_light` (an emitting
-    primitive's rank among the emitters of its tree, -1 for others): the light of a hit is
-    inst_light + prim_light (`light_of_hit`)."""
+def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
+    """The light tables of flat scene `flat` (made from `graph`), whose environment map (if any)
+    sends the radiance `env_power` integrated over the sphere (environment.environment_tables's):
+    `light_i`, `light_f`, `inst_light` (each instance's first area light row), `prim_light` (an
+    emitting primitive's rank among the emitters of its tree, -1 for others): the light of a hit
+    is inst_light + prim_light (`light_of_hit`); and the light tree's tables, empty where the
+    scene has too few lights for a tree to pay.
+
+    Rows: the map (when it sends light), the area lights, then the lights that are no shape (each
+    kind's module makes its rows from the graph, with their `power`). Without those the area
+    lights' cdf is the one their measured power gives, as it always was."""
     tables, area_power = _area_lights(flat)
-    choose = map_share(flat, env_power, area_power)
+    # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
+    extra: list[tuple[np.ndarray, np.ndarray]] = []
+    extra = [pair for pair in extra if len(pair[0])]
+    other_flux = 0.0
+    if extra:
+        tables["light_i"] = np.concatenate([tables["light_i"]] + [i for i, _ in extra])
+        tables["light_f"] = np.concatenate([tables["light_f"]] + [f for _, f in extra])
+        other_flux = float(sum(f[:, LIGHT_POWER].sum() for _, f in extra))
+        power = tables["light_f"][:, LIGHT_POWER]
+        total = float(power.sum())
+        if total > 0.0:
+            tables["light_f"][:, LIGHT_PMF], tables["light_f"][:, LIGHT_CDF] = pmf_and_cdf(power, total)
+    choose = map_share(flat, env_power, area_power, other_flux)
     if choose > 0.0:
-        # The map heads the table: the area lights' rows (and cdf) follow it unchanged.
-        tables["light_i"] = np.concatenate([LIGHT_I.array(1, kind=ENVIRONMENT_LIGHT, instance=-1, primitive=-1), tables["light_i"]])
+        # The map heads the table: the other rows (and their cdf) follow it unchanged.
+        tables["light_i"] = np.concatenate([LIGHT_I.array(1, kind=ENVIRONMENT_LIGHT, instance=-1, primitive=-1, tree_leaf=-1), tables["light_i"]])
         tables["light_f"] = np.concatenate([LIGHT_F.array(1, cdf=choose, pmf=choose), tables["light_f"]])
         tables["inst_light"] = tables["inst_light"] + np.int32(1)
+    # A light tree over the rows, where there are enough of them for one to pay: built here.
     return tables
 
 
-def map_share(flat, env_power: float, area_power: float) -> float:
+def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0) -> float:
     """choose: the probability that a light sample goes to the map, whose radiance integrated
     over the sphere is `env_power`, beside area lights of total power `area_power` (their world
-    area times radiance). The map sends a scene of bounding radius R the flux pi R^2 env_power
-    (environment.flux), a two-sided area light 2 pi A L. A map that sends nothing is never
-    sampled (0); a map alone is always (1)."""
+    area times radiance) and other lights of total flux `other_flux`. The map sends a scene of
+    bounding radius R the flux pi R^2 env_power (environment.flux), a two-sided area light
+    2 pi A L. A map that sends nothing is never sampled (0); a map alone is always (1)."""
     if not env_power > 0.0:
         return 0.0
-    if not area_power > 0.0:
+    if not area_power + other_flux > 0.0:
         return 1.0
-    area = 2.0 * math.pi * area_power
+    area = 2.0 * math.pi * area_power + other_flux
     env = environment.flux(flat, env_power)
     share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
     return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
@@ -179,12 +216,15 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     cone = ((kind == SPHERE) | (kind == MOVING_SPHERE)) & similar
     rectangle = (kind == QUAD) & rectangular(u, v) & similar
     strategy = np.where(cone, BY_CONE, np.where(rectangle, BY_RECTANGLE, BY_AREA))
-    light_i = LIGHT_I.array(len(prim), kind=AREA_LIGHT, instance=inst, primitive=prim, strategy=strategy)
+    light_i = LIGHT_I.array(len(prim), kind=AREA_LIGHT, instance=inst, primitive=prim, strategy=strategy, tree_leaf=-1)
     light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v, corner=corner)
     power = _powers(flat, light_i, light_f)
     total = float(power.sum())
     if not total > 0.0:  # no light sends anything: nothing to sample
         return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
+    # The flux each sends (two-sided: 2 pi A L), as the other kinds state theirs; the choice
+    # among area lights alone keeps the cdf of `power`, as it always did.
+    light_f[:, LIGHT_POWER] = 2.0 * math.pi * power
     light_f[:, LIGHT_PMF], light_f[:, LIGHT_CDF] = pmf_and_cdf(power, total)
     return {"light_i": light_i, "light_f": light_f, "inst_light": inst_light, "prim_light": prim_light}, total
 
@@ -216,19 +256,32 @@ def map_choice(S):
 
 
 @target.device
-def select_light(S, u0):
-    """The one light-selection step: (the light row u0 chooses, -1 for none, and the share of
-    its group: choose for the map, 1 - choose for the rest, whose own pmf their kind applies)."""
+def select_light(S, p, n, u0):
+    """The one light-selection step, for shading point p with unit normal n ((0, 0, 0) in a
+    medium): (the light row u0 chooses, -1 for none; the share of its group: choose for the
+    map, 1 - choose for the rest; and its pmf within that group, which its kind's sampler
+    multiplies into its density: 1 for the map). The rest are chosen by power from their cdf
+    (p and n unused); a kernel with a light tree asks the tree, which weighs them as seen from p."""
     choose = map_choice(S)
     # (choose > 0 first: in a kernel without maps choose is the constant 0, and this folds away.)
     if choose > 0.0 and u0 < choose:
-        return 0, choose
+        return 0, choose, 1.0
     first = 1 if choose > 0.0 else 0
     count = S.light_i.shape[0] - first
     if count <= 0:
-        return -1, 0.0
+        return -1, 0.0, 0.0
     # u0 rescaled to choose among the rest: exactly u0 when there is no map.
-    return search_cdf(S.light_f, LIGHT_CDF, first, count, (u0 - choose) / (1.0 - choose)), 1.0 - choose
+    light = search_cdf(S.light_f, LIGHT_CDF, first, count, (u0 - choose) / (1.0 - choose))
+    return light, 1.0 - choose, S.light_f[light, LIGHT_PMF]
+
+
+@target.device
+def light_pmf(S, light, p, n):
+    """The pmf `select_light` gives light row `light` within its group from shading point p with
+    normal n (1 for the map)."""
+    if light == 0 and map_choice(S) > 0.0:
+        return 1.0
+    return S.light_f[light, LIGHT_PMF]
 
 
 @target.device
@@ -241,31 +294,36 @@ def share_of(S, light):
 
 
 @target.device
-def sample_li(S, p, time, u0, u1, u2):
-    """A light sample for shading point p (world): (ok, point on the light or, for a light at
+def sample_li(S, p, n, time, u0, u1, u2):
+    """A light sample for shading point p (world) with unit normal n ((0, 0, 0) in a medium:
+    only a light tree reads it): (ok, point on the light or, for a light at
     infinity, the direction to it; unit direction wi from p; the distance to the point, inf for
     a light at infinity; solid angle density including the choice of light; emitted radiance).
     u0 chooses the light (`select_light`), u1 and u2 the point on it. Not ok when nothing is
-    drawn (a light met edge-on, at p itself, or a map's pole)."""
+    drawn (a light met edge-on, at p itself, or a map's pole). A seventh value says whether the
+    light is a delta (a point, a spot, parallel light): no BSDF-sampled ray can meet it, so its
+    sample takes no MIS weight, and its "density" is only the probability of its choice."""
     zero = (0.0, 0.0, 0.0)
-    light, share = select_light(S, u0)
+    light, share, pmf = select_light(S, p, n, u0)
     if light >= 0:
         kind = S.light_i[light, LIGHT_KIND]
         if ENVIRONMENT and kind == ENVIRONMENT_LIGHT:
             ok, wi, pdf, le = sample_environment(S.background, S.env_rgb, S.env_row_f, S.env_texel_f, u1, u2)
-            return ok, wi, wi, math.inf, pdf * share, le
+            return ok, wi, wi, math.inf, pdf * share, le, False
         if LIGHTS and kind == AREA_LIGHT:
-            ok, x, wi, dist, pdf, le = sample_area_light(S, light, p, time, u1, u2)
-            return ok, x, wi, dist, pdf * share, le
-        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT: a case each here, calling the kind's sampler.
-    return False, p, zero, 0.0, 0.0, zero
+            ok, x, wi, dist, pdf, le = sample_area_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, False
+        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py) and SUN_LIGHT (sun.py): a case
+        # each here, calling the kind's sampler with the same arguments as the area light's.
+    return False, p, zero, 0.0, 0.0, zero, False
 
 
 @target.device
-def pdf_li(S, light, p, x, n, time):
+def pdf_li(S, light, p, n_p, x, n, time):
     """The density, per solid angle at p and including the choice of light, with which
-    `sample_li` from shading point p gives light row `light` at point x with normal n (for a
-    light at infinity, x is the direction); 0 for row -1 (no light that is sampled)."""
+    `sample_li` from shading point p (normal n_p, as sample_li took it) gives light row `light`
+    at point x with normal n (for a light at infinity, x is the direction); 0 for row -1 (no
+    light that is sampled)."""
     if light < 0:
         return 0.0
     kind = S.light_i[light, LIGHT_KIND]
@@ -273,8 +331,9 @@ def pdf_li(S, light, p, x, n, time):
         _, pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, x)
         return share_of(S, light) * pdf
     if LIGHTS and kind == AREA_LIGHT:
-        return pdf_area_light(S, light, p, x, n, time) * share_of(S, light)
+        return pdf_area_light(S, light, light_pmf(S, light, p, n_p), p, x, n, time) * share_of(S, light)
     # POINT_LIGHT, SPOT_LIGHT: no BSDF-sampled ray meets a point; DIRECTIONAL_LIGHT: nor a direction.
+    # SUN_LIGHT: a case here (a ray that escapes within the disc meets it).
     return 0.0
 
 
@@ -288,14 +347,28 @@ def light_of_hit(S, inst, prim):
 
 
 @target.device
-def radiance_escaped(S, d):
-    """What a ray along d that meets nothing brings back: the background's radiance, and the
-    density `pdf_li` gives d (0 where the background is not sampled as a light)."""
+def bsdf_weight(bsdf_pdf, light_pdf):
+    """The power heuristic's weight of a BSDF-sampled hit on a light, beside the light sampler's
+    density for the same point or direction."""
+    return 1.0 / (1.0 + (light_pdf / bsdf_pdf) ** 2)
+
+
+@target.device
+def radiance_escaped(S, p, n_p, d, prev_pdf):
+    """What a ray from p (whose vertex had normal n_p) along d that meets nothing brings back:
+    the background's radiance, weighted against the light sampler where a light at infinity
+    could have given d too and the ray was BSDF-sampled with density prev_pdf > 0 (0 after the
+    camera or a delta lobe: no weight). A sun's disc, where d meets it, adds its own weighted
+    radiance here (sun.py): each light at infinity is weighed on its own."""
     if ENVIRONMENT and S.background[BG_KIND] == BACKGROUND_IMAGE:
         le, pdf = environment_radiance(S.background, S.env_rgb, S.env_texel_f, d)
         choose = map_choice(S)
-        return le, (choose * pdf if choose > 0.0 else 0.0)
-    return background(S.background, d), 0.0
+        light = choose * pdf if choose > 0.0 else 0.0
+        if light > 0.0 and prev_pdf > 0.0:
+            w = bsdf_weight(prev_pdf, light)
+            le = (le[0] * w, le[1] * w, le[2] * w)
+        return le
+    return background(S.background, d)
 
 
 # --- the kernels: area lights -----------------------------------------------------------------
@@ -361,10 +434,10 @@ def luminance(c):
 
 
 @target.device
-def sample_area_light(S, light, p, time, u1, u2):
+def sample_area_light(S, light, pmf, p, time, u1, u2):
     """A point on area light row `light` for shading point p (world): (ok, point, unit direction
-    from p, distance, solid angle density including the light's pmf among the area lights,
-    emitted radiance). Not ok when the light is met edge-on or at p itself."""
+    from p, distance, solid angle density times `pmf` (the light's pmf within its group, as
+    `select_light` gave it), emitted radiance). Not ok when the light is met edge-on or at p itself."""
     zero = (0.0, 0.0, 0.0)
     inst = S.light_i[light, LIGHT_INSTANCE]
     prim = S.light_i[light, LIGHT_PRIMITIVE]
@@ -409,21 +482,20 @@ def sample_area_light(S, light, p, time, u1, u2):
         if moved:
             pdf *= area_ratio(S.inst_f, inst, n)
         pdf *= dist2_w / cos_l
-    pdf *= S.light_f[light, LIGHT_PMF]
+    pdf *= pmf
     return True, x, wi, dist, pdf, emission(S, prim, x_tree, n_tree, x, time)
 
 
 @target.device
-def pdf_area_light(S, light, p, x, n, time):
+def pdf_area_light(S, light, pmf, p, x, n, time):
     """The density `sample_area_light` from shading point p gives the point x (normal n) of area
-    light row `light`, per solid angle at p and including the light's pmf among the area lights."""
+    light row `light`, per solid angle at p and times `pmf` (its pmf within its group)."""
     inst = S.light_i[light, LIGHT_INSTANCE]
     prim = S.light_i[light, LIGHT_PRIMITIVE]
     to = sub(x, p)
     dist2 = dot(to, to)
     if not dist2 > 0.0:
         return 0.0
-    pmf = S.light_f[light, LIGHT_PMF]
     moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
     kind = S.prims_i[prim, PRIM_KIND]
     strategy = S.light_i[light, LIGHT_STRATEGY]

@@ -50,6 +50,9 @@ EFFECT_FLAGS = (
     EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes", 1),
     EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map", 1),
     EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture", 1),
+    EffectFlag("punctual", "point, spot, directional and sun lights",
+               "sampling lights that are no shape: points, spots, parallel light and the sun's disc", 1),
+    EffectFlag("light_tree", "many lights", "choosing among many lights by a tree of their bounds, orientations and power", 1),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)

@@ -7,7 +7,7 @@ from .. import target
 from ..camera import camera_ray
 from ..flat import INTEGRATOR_MIS
 from ..kernel_flags import INSTANCES, SURFACE_MAPS
-from ..lights import light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
+from ..lights import bsdf_weight, light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
 from ..adaptive import pixel_converged
@@ -56,6 +56,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     # the camera and after a delta lobe (a mirror, glass), whose directions no light sampler can give.
     prev_pdf = 0.0
     prev_p = o
+    # The normal a light tree weighs lights by at the last vertex: (0, 0, 0) for the camera and in a medium.
+    prev_n = (0.0, 0.0, 0.0)
     for bounce in range(max_depth):
         rays += 1
         t, prim, inst = intersect_scene(
@@ -63,11 +65,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
-            bg, light = radiance_escaped(S, d)
-            if light > 0.0 and prev_pdf > 0.0:
-                # A light at infinity's sampler could have given this direction too: weigh the two ways.
-                w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
-                bg = (bg[0] * w, bg[1] * w, bg[2] * w)
+            # Weighed against the light sampler where a light at infinity could have given d too.
+            bg = radiance_escaped(S, prev_p, prev_n, d, prev_pdf)
             r += tr * bg[0]
             g += tg * bg[1]
             b += tb * bg[2]
@@ -92,14 +91,15 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)
+        n_light = (0.0, 0.0, 0.0) if volume else n_front
         color, params = material_at(S, mat, u, v, p)
         tangent = NO_TANGENT
         if emits(S.mat_i, mat):
             e = emitted_at(S, mat, color, u, v, p, front)
             if nee and prev_pdf > 0.0:
                 # The light sampler could have found this point too: weigh the two ways.
-                light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, p, n, time)
-                w = 1.0 / (1.0 + (light / prev_pdf) ** 2)
+                light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, prev_n, p, n, time)
+                w = bsdf_weight(prev_pdf, light)
                 e = (e[0] * w, e[1] * w, e[2] * w)
             r += tr * e[0]
             g += tg * e[1]
@@ -135,7 +135,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
-            ok, x, wi, reach, light, le = sample_li(S, p, time, u0, u1, u2)
+            ok, x, wi, reach, light, le, delta_light = sample_li(S, p, n_light, time, u0, u1, u2)
             if ok and light > 0.0 and not (SURFACE_MAPS and maps and not same_side(wi, n_front, n_shade)):
                 tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, wi)
             else:
@@ -151,7 +151,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                     toward, reach = sub(x, origin), 1.0 - SHADOW_MARGIN
                 seen = transmittance(S, origin, toward, reach, time, stack, tstack)
                 if seen > 0.0:
-                    w = 1.0 / (1.0 + (density / light) ** 2)
+                    # A delta light (a point, parallel light) is never met by chance: its sample counts in full.
+                    w = 1.0 if delta_light else 1.0 / (1.0 + (density / light) ** 2)
                     k = seen * f * w / light
                     r += tr * tint[0] * le[0] * k
                     g += tg * tint[1] * le[1] * k
@@ -168,6 +169,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
             prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, unit(new_d))
             prev_p = p
+            prev_n = n_light
             if bounce >= ROULETTE_AFTER:
                 # Continue with probability of the path's largest throughput, and weigh it up by
                 # the same: unbiased, and a path that carries little stops early.

@@ -217,8 +217,8 @@ def light_samples(S, p, time, seed, n):
     p = (p[0], p[1], p[2])
     for k in range(n):
         key = path_key(seed, k, 0)
-        ok, x, wi, dist, pdf, le = sample_li(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
-                                                uniform(key, light_dim(0, 2)))
+        ok, x, wi, dist, pdf, le, _ = sample_li(S, p, (0.0, 0.0, 0.0), time, uniform(key, light_dim(0, 0)),
+                                             uniform(key, light_dim(0, 1)), uniform(key, light_dim(0, 2)))
         out[k, 0] = 1.0 if ok else 0.0
         out[k, 1], out[k, 2], out[k, 3] = wi[0], wi[1], wi[2]
         out[k, 4], out[k, 5] = dist, pdf
@@ -226,7 +226,7 @@ def light_samples(S, p, time, seed, n):
         if ok:
             prim, inst, xh, nh = _hit(S, p, wi, time, stack, tstack)
             if prim >= 0:
-                out[k, 9] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
+                out[k, 9] = pdf_li(S, light_of_hit(S, inst, prim), p, (0.0, 0.0, 0.0), xh, nh, time)
                 out[k, 10] = math.sqrt((xh[0] - p[0]) ** 2 + (xh[1] - p[1]) ** 2 + (xh[2] - p[2]) ** 2)
     return out
 
@@ -241,7 +241,7 @@ def light_pdf_along(S, p, dirs, time):
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
         prim, inst, xh, nh = _hit(S, p, d, time, stack, tstack)
         if prim >= 0:
-            out[k] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
+            out[k] = pdf_li(S, light_of_hit(S, inst, prim), p, (0.0, 0.0, 0.0), xh, nh, time)
     return out
 
 
@@ -340,21 +340,28 @@ def li_and_pdf_li(S, p, time, seed, n, map_row):
     out = np.zeros((n, 6))
     stack, tstack = _stacks()
     p = (p[0], p[1], p[2])
+    no_normal = (0.0, 0.0, 0.0)
     for k in range(n):
         key = path_key(seed, k, 0)
-        ok, x, wi, dist, pdf, le = sample_li(S, p, time, uniform(key, light_dim(0, 0)), uniform(key, light_dim(0, 1)),
-                                             uniform(key, light_dim(0, 2)))
+        ok, x, wi, dist, pdf, le, _ = sample_li(S, p, no_normal, time, uniform(key, light_dim(0, 0)),
+                                             uniform(key, light_dim(0, 1)), uniform(key, light_dim(0, 2)))
         out[k, 0] = 1.0 if ok else 0.0
         out[k, 1], out[k, 2] = dist, pdf
         if not ok:
             continue
         prim, inst, xh, nh = _hit(S, p, wi, time, stack, tstack)
         out[k, 4] = math.sqrt((xh[0] - p[0]) ** 2 + (xh[1] - p[1]) ** 2 + (xh[2] - p[2]) ** 2) if prim >= 0 else math.inf
-        out[k, 5] = radiance_escaped(S, wi)[1]
+        # The density radiance_escaped weighs by, read back from its weight against a BSDF density pdf.
+        plain = radiance_escaped(S, p, no_normal, wi, 0.0)
+        weighted = radiance_escaped(S, p, no_normal, wi, pdf)
+        lum = plain[0] + plain[1] + plain[2]
+        if lum > 0.0:
+            w = (weighted[0] + weighted[1] + weighted[2]) / lum
+            out[k, 5] = pdf * math.sqrt(max(0.0, 1.0 / w - 1.0))
         if dist == math.inf:
-            out[k, 3] = pdf_li(S, map_row, p, wi, wi, time)
+            out[k, 3] = pdf_li(S, map_row, p, no_normal, wi, wi, time)
         elif prim >= 0:
-            out[k, 3] = pdf_li(S, light_of_hit(S, inst, prim), p, xh, nh, time)
+            out[k, 3] = pdf_li(S, light_of_hit(S, inst, prim), p, no_normal, xh, nh, time)
     return out
 
 
@@ -364,7 +371,7 @@ def selections(S, us):
     the share `share_of` gives that row."""
     out = np.zeros((us.shape[0], 3))
     for k in range(us.shape[0]):
-        light, share = select_light(S, us[k])
+        light, share, _ = select_light(S, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), us[k])
         out[k, 0], out[k, 1] = light, share
         out[k, 2] = share_of(S, light) if light >= 0 else -1.0
     return out

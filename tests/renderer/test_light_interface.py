@@ -66,17 +66,19 @@ def test_the_integrator_names_no_kind_of_light_and_no_map():
     """The integrator asks the light category; it does not know a map from a shape."""
     names = {n.id for n in ast.walk(ast.parse(INTEGRATOR.read_text())) if isinstance(n, ast.Name)}
     names |= {a.name for n in ast.walk(ast.parse(INTEGRATOR.read_text())) if isinstance(n, ast.ImportFrom) for a in n.names}
-    kinds = {"ENVIRONMENT_LIGHT", "AREA_LIGHT", "POINT_LIGHT", "SPOT_LIGHT", "DIRECTIONAL_LIGHT", "choose", "env_nee", "env_map",
+    kinds = {"ENVIRONMENT_LIGHT", "AREA_LIGHT", "POINT_LIGHT", "SPOT_LIGHT", "DIRECTIONAL_LIGHT", "SUN_LIGHT", "PUNCTUAL",
+             "LIGHT_TREE", "choose", "env_nee", "env_map",
              "ENVIRONMENT", "LIGHTS"}
     environment = {"environment_radiance", "sample_environment", "ENV_CHOOSE", "BACKGROUND_IMAGE", "background", "sample_light",
                    "light_pdf"}
     assert not names & (kinds | environment), sorted(names & (kinds | environment))
 
 
-def test_the_light_table_reserves_codes_for_the_lights_to_come():
+def test_every_kind_of_light_has_its_own_code_and_name():
     import renderer.lights as lights
 
-    codes = [lights.ENVIRONMENT_LIGHT, lights.AREA_LIGHT, lights.POINT_LIGHT, lights.SPOT_LIGHT, lights.DIRECTIONAL_LIGHT]
+    codes = [lights.ENVIRONMENT_LIGHT, lights.AREA_LIGHT, lights.POINT_LIGHT, lights.SPOT_LIGHT, lights.DIRECTIONAL_LIGHT,
+             lights.SUN_LIGHT]
     assert len(set(codes)) == len(codes) and set(lights.KINDS) == set(codes)
 
 
@@ -267,7 +269,7 @@ def test_pdf_li_gives_what_sample_li_drew_for_every_kind(with_map):
         # The map: the lookup finds the sampled texel, but for draws on a texel's edge.
         agree = np.abs(again[at_infinity] - pdf[at_infinity]) <= 1e-9 * pdf[at_infinity]
         assert agree.mean() > 0.999, f"{(~agree).sum()} of {agree.size} map densities differ"
-        assert np.all(draws[at_infinity, 5] == again[at_infinity]), "radiance_escaped and pdf_li disagree on the map"
+        assert np.allclose(draws[at_infinity, 5], again[at_infinity], rtol=1e-9, atol=0.0), "radiance_escaped and pdf_li disagree on the map"
     # A point on a lamp: pdf_li of the surface the ray meets there, where that is the drawn point.
     finite = ok & ~np.isinf(draws[:, 1])
     distance = np.where(finite, draws[:, 1], 1.0)

@@ -14,7 +14,7 @@ lights, points, spots) into a binary hierarchy; each node bounds its lights by
 A node's *importance* at shading point p with normal n is a cheap over-estimate of what its
 lights can send there: power x (the largest cosine at the light that the cone and the sphere
 allow toward p) x (the largest |cosine| at p that the sphere allows) / (squared distance to the
-centre, at least the squared radius). The cosines subtract the angle the sphere subtends at p
+centre, at least a quarter of the squared radius). The cosines subtract the angle the sphere subtends at p
 from the angle between the cone and p; it is zero only where no light of the node can reach p
 (the cone and theta_e turn away from p, or the sphere lies below p's horizon on both sides: the
 bound takes |cos| at p, so light through a transmissive surface counts). This is the bound of
@@ -341,9 +341,13 @@ def importance(ltree_f, ltree_i, node, p, n):
     d2 = vx * vx + vy * vy + vz * vz
     r = ltree_f[node, LT_RADIUS]
     r2 = r * r
+    # The distance is the centre's, never below half the radius: a point inside a wide node is
+    # still nearer the lights of the half it is in than a sibling's (the sphere's radius would
+    # make them equal), and a point at a light's centre gets a finite importance.
+    near = max(d2, 0.25 * r2, MIN_DISTANCE2)
     if not d2 > r2:
         # p within the node's sphere: every direction and every cosine is possible.
-        return power / max(r2, MIN_DISTANCE2)
+        return power / near
     inv = 1.0 / math.sqrt(d2)
     wx, wy, wz = vx * inv, vy * inv, vz * inv  # from the centre toward p
     sin2_b = r2 / d2
@@ -367,7 +371,7 @@ def importance(ltree_f, ltree_i, node, p, n):
         cos_l = cos_x * cos_b + sin_x * sin_b
     if cos_l < ltree_f[node, LT_COS_E]:
         return 0.0
-    value = power * max(cos_l, 0.0) / max(d2, MIN_DISTANCE2)
+    value = power * max(cos_l, 0.0) / near
     # At p: the angle between its normal and the centre, less the sphere (|cos|: either side).
     if n[0] != 0.0 or n[1] != 0.0 or n[2] != 0.0:
         cos_i = abs(n[0] * wx + n[1] * wy + n[2] * wz)

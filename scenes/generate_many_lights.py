@@ -3,12 +3,14 @@
     python scenes/generate_many_lights.py           # rewrite scenes/many_lights.yaml
     python scenes/generate_many_lights.py --check   # exit 1 if the committed file differs from what would be written
 
-Two groups each hold one market stall: a counter (a box), an awning (a thin box, red and white
-ones) and twelve small bulbs of varied colour and strength strung under the awning's edge. They
+Two groups each hold one market stall: a counter (a box), an awning (a thin box of dark canvas,
+red or grey: a pale one would light the aisles as much as the bulbs do) and twelve small bulbs of varied colour and strength strung under the awning's edge. They
 are placed over a square's grid of 3 m by 2.4 m cells, every one of them, turned half a turn at
 random: 1,040 placements, 12,480 lights. The camera looks down from above, as a drone would, onto
-the awnings and the lit aisles between them; the awnings hide the bulbs from it. The night sky
-is a dim solid colour.
+the awnings and the lit aisles between them, steeply enough (30 degrees or more below the
+horizon) that the awnings hide the bulbs from it: seen within a pixel, 12,000 bulbs would make an
+image whose noise is theirs, whatever chooses the light of a shadow ray. The night sky is a dim
+solid colour.
 
 Each stall's bulbs light its counter and the aisles beside it; seen from a point of the market,
 almost all of the others are far away or behind awnings and counters. Choosing a light by power
@@ -44,10 +46,10 @@ description: >-
   the stalls are lit by the bulbs near them. A light tree chooses among the bulbs by what each may
   send to the shading point (docs/lights.md, "Many lights").
 camera:
-  look_from: [6, 44, 30]
-  look_at: [0, 0, 1]
+  look_from: [5, 26, 15]
+  look_at: [0, 0, -1]
   up: [0, 1, 0]
-  vfov: 45
+  vfov: 50
 image:
   width: 480
   aspect_ratio: 1.7778
@@ -59,13 +61,13 @@ textures:
 materials:
   ground: {{type: lambertian, albedo: cobbles}}
   wood: {{type: lambertian, albedo: [0.45, 0.3, 0.18]}}
-  red_canvas: {{type: lambertian, albedo: [0.6, 0.12, 0.1]}}
-  white_canvas: {{type: lambertian, albedo: [0.75, 0.73, 0.68]}}
+  red_canvas: {{type: lambertian, albedo: [0.3, 0.06, 0.05]}}
+  white_canvas: {{type: lambertian, albedo: [0.22, 0.21, 0.19]}}
 """
 
 # Bulb colours (emitted radiance); the bulbs are hidden from the camera, so they may be bright.
-COLOURS = {"warm": [12, 8, 3.4], "amber": [13, 5.5, 1.2], "white": [9, 8.7, 7.8], "red": [14, 1.5, 0.9],
-           "green": [1.8, 11, 2.1], "blue": [1.5, 3, 15], "pink": [11, 3, 8.4], "cyan": [1.8, 9.6, 10.8]}
+COLOURS = {"warm": [24, 16, 6.8], "amber": [26, 11, 2.4], "white": [18, 17.4, 15.6], "red": [28, 3, 1.8],
+           "green": [3.6, 22, 4.2], "blue": [3, 6, 30], "pink": [22, 6, 16.8], "cyan": [3.6, 19.2, 21.6]}
 # The colour of each bulb of a stall: mostly warm, a few coloured.
 BULB_COLOURS = ["warm", "amber", "warm", "blue", "warm", "white", "amber", "warm", "pink", "warm", "green", "amber"]
 

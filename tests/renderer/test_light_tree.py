@@ -171,6 +171,7 @@ def test_the_path_integrator_never_wants_a_tree():
     assert not wants_light_tree(graph_of(text))
 
 
+@pytest.mark.slow
 def test_the_memory_estimate_counts_light_rows_and_tree_nodes_for_ten_thousand_instanced_emitters():
     """12,000 lights (a group of 12 placed 1,000 times): the estimate's lights part holds what the
     light table, the tree and its build take at their peak (measured with tracemalloc)."""
@@ -184,8 +185,6 @@ def test_the_memory_estimate_counts_light_rows_and_tree_nodes_for_ten_thousand_i
     graph = graph_of(text)
     estimate = estimate_memory(graph)
     assert count_lights(graph).total == 12_000
-    flat = compile_scene(graph, use_bvh=False) if False else None
-    pytest.importorskip("numba")
     flat = compile_scene(graph)
     assert len(flat.ltree_i) == 2 * 12_000 - 1
     tracemalloc.start()
@@ -242,7 +241,9 @@ def test_the_pmf_sums_to_one_over_all_lights_and_select_light_follows_it(backgro
         p_value, dof = chi2_test(np.bincount(lights, minlength=300), table[k])
         assert dof > 20 and p_value > ALPHA / 3, f"point {k}: chi-square p = {p_value:.2e}"
         if background:
-            share = flat.light_f[0, 1]
+            from renderer.lights import LIGHT_PMF
+
+            share = flat.light_f[0, LIGHT_PMF]
             assert abs((~tree).mean() - share) <= z_limit(3) * math.sqrt(share * (1 - share) / n)
 
 

@@ -164,6 +164,9 @@ class SceneGraph:
     memory: Optional[bounds.MemoryEstimate] = None  # what rendering it needs (scenefmt.bounds)
     # An image background (environment map) as the image texture it is read as, at ("background",).
     environment: Optional[TextureNode] = None
+    # The scene's lights that are no shape (scenefmt.lights models, world space), in file order:
+    # light k is at ("lights", k).
+    lights: list = field(default_factory=list)
 
     @property
     def environment_path(self) -> Optional[Path]:
@@ -593,6 +596,7 @@ class _Resolver:
             warnings=self.mesh_warnings + warnings,
             source=self.doc.file if self.doc is not None else None,
             environment=environment,
+            lights=list(scene.lights),
         )
 
     def environment(self, model: ImageBackground) -> TextureNode:

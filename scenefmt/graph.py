@@ -574,6 +574,10 @@ class _Resolver:
                 warnings.append(self.warn((), f"the scene is empty: {NO_SHAPES}"))
             else:
                 warnings.append(self.warn((), f"the scene has no shapes key: {NO_SHAPES}"))
+        if scene.lights and scene.image.integrator == "path":
+            # Valid, but they would light nothing: a path meets no point and no direction by chance.
+            warnings.append(self.warn(("lights",), "point, spot and directional lights light nothing with image.integrator "
+                                      "path, which finds a light only by hitting it; use mis (the default) to sample them"))
         background = scene.background
         if isinstance(background, tuple):
             background = SolidBackground(color=background)

@@ -38,8 +38,12 @@ def test_the_first_light_switches_the_punctual_path_on():
 
 
 def test_without_light_sampling_the_lights_are_never_found_and_the_path_stays_off():
-    effect = summarize(loads(LIT + "image: {integrator: path}\n").graph).effect("punctual")
+    loaded = loads(LIT + "image: {integrator: path}\n")
+    effect = summarize(loaded.graph).effect("punctual")
     assert not effect.on and "never found" in effect.reason
+    # Valid, with a warning at lights: the image would be dark where only they shine.
+    assert any("light nothing with image.integrator path" in str(w) for w in loaded.warnings)
+    assert not any("integrator" in str(w) for w in loads(LIT).warnings)
 
 
 def test_the_light_kinds_are_counted_with_instances_placing_emitters():

@@ -1,6 +1,6 @@
 """Lights: the category. Its table, its one selection step, and the two questions the integrator asks.
 
-Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
+Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f` (declared in light_table.py):
 
 - ENVIRONMENT_LIGHT, an image background (environment.py, the kind's module: its lookup and its
   sampler by brightness). At infinity: it gives directions, not points.

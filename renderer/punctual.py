@@ -30,8 +30,8 @@ import numpy as np
 
 from . import target
 from .environment import scene_radius
-from .light_table import DIRECTIONAL_LIGHT, LIGHT_BEAM, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_F, LIGHT_I, \
-    LIGHT_POSITION, LIGHT_RADIANCE, LIGHT_SIZE, POINT_LIGHT, SPOT_LIGHT
+from .light_table import (DIRECTIONAL_LIGHT, LIGHT_BEAM, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_F, LIGHT_I,
+                          LIGHT_POSITION, LIGHT_RADIANCE, LIGHT_SIZE, POINT_LIGHT, SPOT_LIGHT)
 from .numerics.vec import dot, scale, sub
 from .shapes.spheres import cone_from, sample_cone
 
@@ -149,7 +149,9 @@ def sample_spot_light(S, light, pmf, p, time, u1, u2):
 
 @target.device
 def sample_directional_light(S, light, pmf, p, time, u1, u2):
-    """Directional light row `light`: (True, the direction toward the light (at infinity), the same
-    as wi, inf, pmf, its irradiance E: what arrives per unit solid angle "density" pmf)."""
+    """Directional light row `light`: (True, the direction toward the light (a light at infinity
+    gives a direction where others give a point), the same as wi, inf, pmf, its irradiance E:
+    a surface facing the light receives E, one at angle theta E cos theta, which the BSDF's
+    cosine supplies)."""
     wi = light_vector(S, light, LIGHT_DIRECTION)
     return True, wi, wi, math.inf, pmf, light_vector(S, light, LIGHT_RADIANCE)

@@ -82,3 +82,19 @@ def test_colours_change_smoothly_with_temperature():
 def test_outside_the_range_is_one_clear_error(kelvin):
     with pytest.raises(ValueError, match="between 1000 and 40000 kelvin"):
         temperature_rgb(kelvin)
+
+
+def test_3000_kelvin_is_the_published_orange():
+    """Mitchell Charity's blackbody pages (vendian.org, "Different blackbody colors on the web") give
+    3000 K as xy (0.4369, 0.4041) and, in sRGB with D65 white scaled so its largest channel is 1,
+    the pixel #ffbb71: our colour, encoded the same way, is within 4 of 255 on each channel."""
+    x, y = chromaticity(3000)
+    assert abs(x - 0.4369) <= 0.002 and abs(y - 0.4041) <= 0.002
+    rgb = temperature_rgb(3000)
+    top = max(rgb)
+
+    def encode(c):
+        return 12.92 * c if c <= 0.0031308 else 1.055 * c ** (1 / 2.4) - 0.055
+
+    pixel = [round(255 * encode(c / top)) for c in rgb]
+    assert all(abs(a - b) <= 4 for a, b in zip(pixel, (0xFF, 0xBB, 0x71))), pixel

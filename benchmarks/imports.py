@@ -56,7 +56,8 @@ FLOOR = frozenset({
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
-    "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_tree", "renderer.light_bounds",
+    "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
+    "renderer.light_tree", "renderer.light_bounds",
 })
 
 

@@ -293,3 +293,56 @@ def test_the_tree_image_is_the_same_on_one_and_two_threads():
     finally:
         target.set_thread_count(before)
     assert np.array_equal(one.total, two.total) and np.array_equal(one.total_sq, two.total_sq)
+
+
+# --- lights that are no shape: points and spots in the tree, parallel light beside it ----------
+
+
+def punctual_text() -> str:
+    """The 300 area lights, 12 point lights, 12 spots pointing down and a directional light."""
+    lights = ["lights:"]
+    for k in range(12):
+        x, z = -5 + k, 4 - 0.7 * k
+        lights.append(f"  - {{type: point, position: [{x}, 1.5, {z}], intensity: {1 + k % 3}}}")
+        lights.append(f"  - {{type: spot, position: [{z}, 2, {x}], look_at: [{z + 0.5}, 0, {x}], intensity: 4, cutoff_angle: 25}}")
+    lights.append("  - {type: directional, direction: [0.3, -1, 0.2], irradiance: 0.5}")
+    return many_lights_text() + "\n".join(lights) + "\n"
+
+
+def test_point_and_spot_lights_count_toward_the_tree():
+    graph = graph_of(punctual_text())
+    assert count_lights(graph).total == 300 + 24
+
+
+@pytest.mark.slow
+def test_points_and_spots_go_into_the_tree_and_parallel_light_keeps_its_share_beside_it():
+    from renderer.light_table import DIRECTIONAL_LIGHT, LIGHT_KIND, LIGHT_PMF, LIGHT_TREE_LEAF, POINT_LIGHT, SPOT_LIGHT
+    from tests.renderer.light_tree_calls import choices, pmf_table
+
+    flat = flat_of(punctual_text())
+    kind = flat.light_i[:, LIGHT_KIND]
+    leaf = flat.light_i[:, LIGHT_TREE_LEAF]
+    assert np.all(leaf[(kind == POINT_LIGHT) | (kind == SPOT_LIGHT)] >= 0) and (kind == SPOT_LIGHT).sum() == 12
+    parallel = np.flatnonzero(kind == DIRECTIONAL_LIGHT)
+    assert len(parallel) == 1 and leaf[parallel[0]] == -1
+    share = flat.ltree_f[0, LT_SHARE]
+    assert share == pytest.approx(1.0 - flat.light_f[parallel[0], LIGHT_PMF], rel=1e-12) and share < 1.0
+    points, normals = shading_points(flat, 30, 4)
+    table = pmf_table(flat, points, normals, 0)
+    assert np.all(np.isfinite(table)) and np.allclose(table.sum(axis=1), 1.0, atol=1e-12)
+    assert np.allclose(table[:, parallel[0]], flat.light_f[parallel[0], LIGHT_PMF])
+    n = 200_000
+    rng = np.random.default_rng(9)
+    for k in (0, 3):
+        out = choices(flat, np.repeat(points[k:k + 1], n, 0), np.repeat(normals[k:k + 1], n, 0), rng.random(n))
+        lights = out[:, 0].astype(int)
+        assert np.allclose(out[:, 3], out[:, 2], rtol=1e-12, atol=0)
+        assert np.allclose(out[:, 2], table[k, lights], rtol=1e-12, atol=0)
+        p_value, _ = chi2_test(np.bincount(lights, minlength=len(kind)), table[k])
+        assert p_value > ALPHA / 2, f"point {k}: chi-square p = {p_value:.2e}"
+    # A spot sends nothing past its cut-off: from straight above it, at its own height, its pmf is 0.
+    spots = np.flatnonzero(kind == SPOT_LIGHT)
+    from renderer.light_table import LIGHT_POSITION
+
+    above = flat.light_f[spots[:1], LIGHT_POSITION:LIGHT_POSITION + 3] + np.array([[0.0, 3.0, 0.0]])
+    assert pmf_table(flat, above, np.zeros((1, 3)), 0)[0, spots[0]] == 0.0

@@ -52,7 +52,7 @@ camera:
   vfov: 50
 image:
   width: 480
-  aspect_ratio: 1.7778
+  height: 270
   samples_per_pixel: 64
   max_depth: 6
 background: [0.004, 0.006, 0.016]

@@ -53,10 +53,10 @@ import numpy as np
 from . import target
 
 from . import environment
-from .background import BACKGROUND_IMAGE, BG_KIND, background
+from .background import BACKGROUND_IMAGE, BG_KIND, BG_SUN, background
 from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
-from .kernel_flags import ENVIRONMENT, LIGHTS
+from .kernel_flags import ENVIRONMENT, LIGHTS, PUNCTUAL
 from .materials import MAT_READS_UV, emission_source, emitting_rows
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
@@ -64,6 +64,7 @@ from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
+from .sun import sample_sun_cone, sun_cone_pdf, sun_of
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
 from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 
@@ -143,6 +144,7 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
     tables, area_power = _area_lights(flat)
     # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
     extra: list[tuple[np.ndarray, np.ndarray]] = []
+    extra.append(_sun_rows(flat, graph))
     extra = [pair for pair in extra if len(pair[0])]
     other_flux = 0.0
     if extra:
@@ -160,7 +162,7 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
         tables["light_f"] = np.concatenate([LIGHT_F.array(1, cdf=choose, pmf=choose), tables["light_f"]])
         tables["inst_light"] = tables["inst_light"] + np.int32(1)
     # A light tree over the rows, where there are enough of them for one to pay: built here.
-    return tables
+    return _place_sun(flat, tables)
 
 
 def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0) -> float:
@@ -177,6 +179,31 @@ def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0
     env = environment.flux(flat, env_power)
     share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
     return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
+
+
+def _sun_rows(flat, graph) -> tuple[np.ndarray, np.ndarray]:
+    """The SUN_LIGHT row of a `sun_sky` background's sun (sun.py), none for any other background.
+    Its power is the flux pi R^2 E its irradiance E sends into the scene of bounding radius R
+    (environment.flux)."""
+    from scenefmt.sky import SunSkyBackground
+
+    sun = sun_of(graph.background) if graph is not None and isinstance(graph.background, SunSkyBackground) else None
+    if sun is None:
+        return LIGHT_I.array(0), LIGHT_F.array(0)
+    return (LIGHT_I.array(1, kind=SUN_LIGHT, instance=-1, primitive=-1, tree_leaf=-1),
+            LIGHT_F.array(1, direction=sun.direction, radiance=sun.radiance, size=sun.cos_radius,
+                                  power=environment.flux(flat, sun.irradiance)))
+
+
+def _place_sun(flat, tables: dict) -> dict:
+    """The light tables with the sun's row named in the background row, where rays that escape
+    look it up (lights.radiance_escaped)."""
+    rows = np.flatnonzero(tables["light_i"][:, LIGHT_KIND] == SUN_LIGHT)
+    if len(rows) and len(flat.background) > BG_SUN:
+        background_row = np.array(flat.background, np.float64)
+        background_row[BG_SUN] = float(rows[0])
+        tables["background"] = background_row
+    return tables
 
 
 def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
@@ -313,8 +340,11 @@ def sample_li(S, p, n, time, u0, u1, u2):
         if LIGHTS and kind == AREA_LIGHT:
             ok, x, wi, dist, pdf, le = sample_area_light(S, light, pmf, p, time, u1, u2)
             return ok, x, wi, dist, pdf * share, le, False
-        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py) and SUN_LIGHT (sun.py): a case
-        # each here, calling the kind's sampler with the same arguments as the area light's.
+        if PUNCTUAL and kind == SUN_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_sun_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, False
+        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py): a case each here, calling the
+        # kind's sampler with the same arguments as the area light's.
     return False, p, zero, 0.0, 0.0, zero, False
 
 
@@ -332,8 +362,10 @@ def pdf_li(S, light, p, n_p, x, n, time):
         return share_of(S, light) * pdf
     if LIGHTS and kind == AREA_LIGHT:
         return pdf_area_light(S, light, light_pmf(S, light, p, n_p), p, x, n, time) * share_of(S, light)
+    if PUNCTUAL and kind == SUN_LIGHT:
+        # A ray that escapes within the disc meets it.
+        return pdf_sun_light(S, light, light_pmf(S, light, p, n_p), p, x, n, time) * share_of(S, light)
     # POINT_LIGHT, SPOT_LIGHT: no BSDF-sampled ray meets a point; DIRECTIONAL_LIGHT: nor a direction.
-    # SUN_LIGHT: a case here (a ray that escapes within the disc meets it).
     return 0.0
 
 
@@ -367,8 +399,59 @@ def radiance_escaped(S, p, n_p, d, prev_pdf):
         if light > 0.0 and prev_pdf > 0.0:
             w = bsdf_weight(prev_pdf, light)
             le = (le[0] * w, le[1] * w, le[2] * w)
+        if PUNCTUAL and S.background[BG_SUN] >= 0.0:
+            sun = sun_escaped(S, int(S.background[BG_SUN]), p, n_p, d, prev_pdf)
+            le = (le[0] + sun[0], le[1] + sun[1], le[2] + sun[2])
         return le
     return background(S.background, d)
+
+
+# --- the kernels: the sun (its disc's cone: sun.py) -------------------------------------------
+
+
+@target.device
+def sun_axis(S, light):
+    return (S.light_f[light, LIGHT_DIRECTION], S.light_f[light, LIGHT_DIRECTION + 1], S.light_f[light, LIGHT_DIRECTION + 2])
+
+
+@target.device
+def sun_radiance(S, light):
+    return (S.light_f[light, LIGHT_RADIANCE], S.light_f[light, LIGHT_RADIANCE + 1], S.light_f[light, LIGHT_RADIANCE + 2])
+
+
+@target.device
+def sample_sun_light(S, light, pmf, p, time, u1, u2):
+    """A direction to sun row `light`'s disc, uniform in the cone it subtends: (ok, the direction
+    (a light at infinity), the same unit direction, inf, its solid angle density times `pmf`,
+    the disc's radiance). Not a delta: BSDF-sampled rays meet the disc too."""
+    wi, pdf = sample_sun_cone(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], u1, u2)
+    return True, wi, wi, math.inf, pdf * pmf, sun_radiance(S, light)
+
+
+@target.device
+def pdf_sun_light(S, light, pmf, p, x, n, time):
+    """The density `sample_sun_light` gives the direction x (unit), times `pmf`: 0 outside the disc."""
+    return sun_cone_pdf(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], x) * pmf
+
+
+@target.device
+def sun_escaped(S, light, p, n_p, d, prev_pdf):
+    """The radiance of sun row `light` along d (any length) for a ray from p that meets nothing:
+    the disc's where d falls inside it, weighed against the sun's own sampler when the ray was
+    BSDF-sampled with density prev_pdf > 0 (the map's weight is its own: each light at infinity
+    is weighed alone)."""
+    zero = (0.0, 0.0, 0.0)
+    w = unit(d)
+    axis = sun_axis(S, light)
+    if dot(axis, w) < S.light_f[light, LIGHT_SIZE]:
+        return zero
+    le = sun_radiance(S, light)
+    if prev_pdf > 0.0 and lights_to_sample(S):
+        density = pdf_sun_light(S, light, light_pmf(S, light, p, n_p), p, w, w, 0.0) * share_of(S, light)
+        if density > 0.0:
+            k = bsdf_weight(prev_pdf, density)
+            le = (le[0] * k, le[1] * k, le[2] * k)
+    return le
 
 
 # --- the kernels: area lights -----------------------------------------------------------------

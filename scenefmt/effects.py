@@ -15,6 +15,7 @@ from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
 from .materials import SCALAR_SLOTS, emits
 from .scene import ImageBackground, SkyBackground
+from .sky import SunSkyBackground
 
 # (key, name), from the one table of effects: the key is the kernel path's flag
 # (renderer/kernel_flags.py), the name is what users read.
@@ -132,6 +133,18 @@ def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Un
     return None
 
 
+def sun_sky_effects(bg: SunSkyBackground, integrator: str) -> dict[str, Effect]:
+    """The effects a `sun_sky` background calls for: its sky is an environment map (even without
+    a sky: the map is then black, and the sun's disc is looked up beside it), and its sun a light
+    that is no shape, which rays escaping toward its disc meet whatever the integrator."""
+    how = "sampled as a light" if integrator == "mis" else "found by chance (image.integrator is path)"
+    found = {"environment": Effect("", True, f"background: sun_sky, its sky {how}" if bg.sky else
+                                   "background: sun_sky, the sun's disc beside a black sky")}
+    if bg.sun:
+        found["punctual"] = Effect("", True, f"background: sun_sky, its sun {how}")
+    return found
+
+
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
@@ -215,6 +228,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     if isinstance(graph.background, ImageBackground):
         how = "sampled as a light" if graph.image.integrator == "mis" else "found by chance (image.integrator is path)"
         found["environment"] = Effect("", True, f"background: {{type: image, file: {graph.background.file}}}, {how}")
+    if isinstance(graph.background, SunSkyBackground):
+        found.update(sun_sky_effects(graph.background, graph.image.integrator))
     if emitters and graph.image.integrator == "mis":
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:

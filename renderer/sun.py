@@ -6,9 +6,9 @@ uniform radiance L, toward the unit direction s. A light sample draws a directio
 the cone {d : d . s >= cos alpha}, whose solid angle is 2 pi (1 - cos alpha); it is not a delta
 light, since a BSDF-sampled ray that escapes within the cone meets the disc too, and the two ways
 are weighed by the power heuristic (lights.py: `sample_sun_light`, `pdf_sun_light`,
-`radiance_escaped`). The irradiance on a surface facing the sun is E = L 2 pi (1 - cos alpha),
-and on one whose normal makes angle theta with s (the whole disc above its horizon)
-E cos theta: the exact integral of a uniform cap.
+`radiance_escaped`). The irradiance on a surface facing the sun is E = pi L sin^2 alpha, and on
+one whose normal makes angle theta with s (the whole disc above its horizon) E cos theta: the
+exact integral of a uniform cap (`cap_irradiance`).
 
 The disc's radiance is the sun's extraterrestrial spectrum, a black body at 5778 K (whose
 radiance, over the sun's solid angle, gives the solar constant within 2%), attenuated along the
@@ -85,9 +85,10 @@ def disc_radiance(elevation: float, turbidity: float) -> np.ndarray:
     return np.maximum(XYZ_TO_SRGB @ xyz, 0.0)
 
 
-def cone_solid_angle(cos_radius: float) -> float:
-    """The solid angle of a cone of half-angle whose cosine is `cos_radius`."""
-    return 2.0 * math.pi * (1.0 - cos_radius)
+def cap_irradiance(cos_radius: float) -> float:
+    """The irradiance a disc of unit radiance and angular radius acos(cos_radius) gives a surface
+    facing it: the cosine-weighted solid angle of the cap, pi sin^2."""
+    return math.pi * (1.0 - cos_radius * cos_radius)
 
 
 class Sun(NamedTuple):
@@ -108,12 +109,12 @@ def sun_of(bg) -> Sun | None:
     cos_radius = math.cos(radius)
     # The real disc's radiance, spread over the chosen disc with the same irradiance.
     real = disc_radiance(math.radians(elevation_deg), float(bg.turbidity))
-    spread = cone_solid_angle(math.cos(REAL_RADIUS)) / cone_solid_angle(cos_radius)
+    spread = cap_irradiance(math.cos(REAL_RADIUS)) / cap_irradiance(cos_radius)
     radiance = real * (spread * MODEL_TO_UNITS * float(bg.strength))
     luminance = float(0.2126 * radiance[0] + 0.7152 * radiance[1] + 0.0722 * radiance[2])
     if not luminance > 0.0:
         return None
-    return Sun(bg.sun_direction(), radiance, cos_radius, luminance * cone_solid_angle(cos_radius))
+    return Sun(bg.sun_direction(), radiance, cos_radius, luminance * cap_irradiance(cos_radius))
 
 
 # --- the kernels ------------------------------------------------------------------------------

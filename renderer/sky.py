@@ -74,6 +74,7 @@ MODEL_TO_UNITS = 683.0 / UNIT_CD_PER_M2
 # glow about a low sun is not aliased.
 MAP_WIDTH, MAP_HEIGHT = 512, 256
 SUBSAMPLES = 2
+BAND_ROWS = 16
 
 
 def texel_directions(width: int, height: int, sub: int) -> np.ndarray:
@@ -96,12 +97,16 @@ def sky_map(sun: tuple, elevation: float, turbidity: float, albedo: float, width
     """(height, width, 3) float64: the sky's radiance in the model's units over the upper
     hemisphere for a sun toward unit `sun` at `elevation` radians, each texel the mean of sub x sub
     points; 0 below the horizon (sky_background adds the ground)."""
+    out = np.zeros((height, width, 3))
     d = texel_directions(width, height, sub)
-    cos_theta = d[..., 1]
-    cos_gamma = d @ np.asarray(sun, np.float64)
-    value = radiance(cos_theta, cos_gamma, elevation, turbidity, albedo)
-    value = np.where((cos_theta >= 0.0)[..., None], np.maximum(value, 0.0), 0.0)
-    return value.mean(axis=2)
+    # Bands of rows, so that the model's temporaries stay a few megabytes (scenefmt.bounds counts them).
+    for first in range(0, (height + 1) // 2, BAND_ROWS):  # the upper half: the lower is below the horizon
+        band = d[first:first + BAND_ROWS]
+        cos_theta = band[..., 1]
+        value = radiance(cos_theta, band @ np.asarray(sun, np.float64), elevation, turbidity, albedo)
+        value = np.where((cos_theta >= 0.0)[..., None], np.maximum(value, 0.0), 0.0)
+        out[first:first + BAND_ROWS] = value.mean(axis=2)
+    return out
 
 
 def horizontal_irradiance(rgb: np.ndarray) -> np.ndarray:

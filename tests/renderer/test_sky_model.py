@@ -127,3 +127,21 @@ def test_live_against_mitsuba_where_installed():
     import mitsuba_sky
 
     np.testing.assert_allclose(np.array(mitsuba_sky.mitsuba_sky_table()), np.array(MITSUBA_SKY), rtol=1e-5)
+
+
+def test_the_memory_estimate_counts_the_map_the_renderer_builds():
+    from scenefmt.bounds import SUN_SKY_MAP_PIXELS
+
+    assert SUN_SKY_MAP_PIXELS == sky.MAP_WIDTH * sky.MAP_HEIGHT
+
+
+def test_the_suns_disc_is_a_rare_path_that_a_mirror_shows():
+    from renderer.compile import compile_scene
+    from renderer.rare_paths import rare_path_prior
+    from scenefmt.validation import loads
+
+    text = ("background: {type: sun_sky, elevation: 30, azimuth: 0}\n"
+            "shapes: [{type: sphere, center: [0, 0, 0], radius: 1, material: {type: metal, albedo: [0.9, 0.9, 0.9]}}]\n")
+    prior = rare_path_prior(compile_scene(loads(text).graph))
+    assert prior is not None and prior.light == "the sun's disc"
+    assert prior.peak_radiance > 1e4

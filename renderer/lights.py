@@ -64,8 +64,8 @@ from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
-from .sun import sample_sun_cone, sun_cone_pdf, sun_of
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
+from .sun import sample_sun_cone, sun_cone_pdf, sun_of
 from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
 
 # Kinds of light (light_i.kind).
@@ -407,6 +407,9 @@ def radiance_escaped(S, p, n_p, d, prev_pdf):
 
 
 # --- the kernels: the sun (its disc's cone: sun.py) -------------------------------------------
+# The sun's two kernels read the light table's columns, declared here: they live here, and sun.py
+# keeps the cone's geometry and the disc's radiance, importing nothing of this module (so no
+# import circle).
 
 
 @target.device

@@ -56,7 +56,8 @@ FLOOR = frozenset({
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
-    "renderer.background", "renderer.environment", "renderer.lights", "renderer.sky", "renderer.sky_data", "renderer.sun",
+    "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
+    "renderer.sky", "renderer.sky_data", "renderer.sun",
 })
 
 

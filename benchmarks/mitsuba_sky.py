@@ -94,7 +94,7 @@ def main(argv=None) -> int:
         print("]")
         print("MITSUBA_SUN = [" + ", ".join("(" + ", ".join(f"{v:.7g}" for v in rgb) + ")" for rgb in sun_rows) + "]")
         return 0
-    from renderer import sky, sun
+    from renderer import sky
 
     for (elevation, turbidity, albedo), row in zip(SKY_CASES, sky_rows):
         s = sun_toward(elevation)
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
         print(f"sky elevation {elevation:g} turbidity {turbidity:g} albedo {albedo:g}: ours / Mitsuba's",
               np.array2string(ours / np.array(row), precision=6))
     for (elevation, turbidity), rgb in zip(SUN_CASES, sun_rows):
-        ours = sun.disc_radiance(math.radians(elevation), turbidity)
+        ours = sky.disc_radiance(math.radians(elevation), turbidity)
         print(f"sun elevation {elevation:g} turbidity {turbidity:g}: ours / Mitsuba's", np.array2string(ours / np.array(rgb), precision=4))
     return 0
 

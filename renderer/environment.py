@@ -110,12 +110,8 @@ def environment_tables(flat, graph) -> tuple[dict[str, np.ndarray], float]:
     bg = graph.background
     if isinstance(bg, SunSkyBackground):
         from .sky import sun_sky_map
-        from .sun import cap_irradiance, sun_of
 
-        sun = sun_of(bg)
-        # The sun's irradiance on the level ground below the horizon.
-        on_ground = sun.radiance * cap_irradiance(sun.cos_radius) * max(0.0, sun.direction[1]) if sun else np.zeros(3)
-        rgb, turn = sun_sky_map(bg, on_ground), 0.0
+        rgb, turn = sun_sky_map(bg), 0.0
     elif isinstance(bg, ImageBackground):
         texels = load_image_texels(graph.environment_path, "srgb")  # float images as stored, 8-bit ones as sRGB
         rgb = np.ascontiguousarray(texels * np.float32(bg.strength), dtype=np.float32)

@@ -1,6 +1,6 @@
 """Lights: the category. Its table, its one selection step, and the two questions the integrator asks.
 
-Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
+Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f` (declared in light_table.py):
 
 - ENVIRONMENT_LIGHT, an image background (environment.py, the kind's module: its lookup and its
   sampler by brightness). At infinity: it gives directions, not points.
@@ -54,64 +54,24 @@ from . import target
 
 from . import environment
 from .background import BACKGROUND_IMAGE, BG_KIND, BG_SUN, background
-from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS, PUNCTUAL
+from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONAL_LIGHT, ENVIRONMENT_LIGHT, KINDS, LIGHT_AREA,
+                          LIGHT_BEAM, LIGHT_CDF, LIGHT_CORNER, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_EDGE_U,
+                          LIGHT_EDGE_V, LIGHT_F, LIGHT_I, LIGHT_INSTANCE, LIGHT_KIND, LIGHT_PMF, LIGHT_POSITION, LIGHT_POWER,
+                          LIGHT_PRIMITIVE, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_STRATEGY, LIGHT_TREE_LEAF, POINT_LIGHT, SPOT_LIGHT,
+                          SUN_LIGHT)
 from .materials import MAT_READS_UV, emission_source, emitting_rows
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
+from .punctual import punctual_rows, sample_directional_light, sample_point_light, sample_spot_light
+from .sun import pdf_sun_light, sample_sun_light, sun_along, sun_rows
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
-from .sun import sample_sun_cone, sun_cone_pdf, sun_of
 from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
-
-# Kinds of light (light_i.kind).
-ENVIRONMENT_LIGHT = 0  # the image background, at infinity (environment.py)
-AREA_LIGHT = 1  # an emitting shape placed by an instance (below, sampled by its shape family)
-POINT_LIGHT = 2  # a point, or a small sphere that no ray meets (punctual.py)
-SPOT_LIGHT = 3  # a point sending light in a cone (punctual.py)
-DIRECTIONAL_LIGHT = 4  # parallel light from one direction at infinity (punctual.py)
-SUN_LIGHT = 5  # a disc at infinity of small angular size, met by rays that escape (sun.py)
-KINDS = {ENVIRONMENT_LIGHT: "environment", AREA_LIGHT: "area", POINT_LIGHT: "point", SPOT_LIGHT: "spot",
-         DIRECTIONAL_LIGHT: "directional", SUN_LIGHT: "sun"}
-
-# How an area light's points are drawn (light_i.strategy).
-BY_AREA = 0  # uniform on the surface
-BY_CONE = 1  # a sphere under a similarity: uniform in the cone it subtends where that exists
-BY_RECTANGLE = 2  # a rectangular quad under a similarity: uniform in the solid angle it subtends
-
-LIGHT_I = Layout("light_i", "int32", [
-    Column("kind", 1, "ENVIRONMENT_LIGHT (row 0 when present), AREA_LIGHT, POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT or SUN_LIGHT"),
-    Column("instance", 1, "area light: row of inst_i that places the light's tree"),
-    Column("primitive", 1, "area light: row of prims_i of the emitting primitive"),
-    Column("strategy", 1, "area light: BY_AREA, BY_CONE or BY_RECTANGLE"),
-    Column("tree_leaf", 1, "with a light tree: the node of light_tree that holds this light; -1 for a light the tree does not choose"),
-])
-LIGHT_F = Layout("light_f", "float64", [
-    Column("cdf", 1, "the map: choose; any other light: probability of choosing it or one before it among the lights after the map (the last row is 1)"),
-    Column("pmf", 1, "the map: choose, its probability of being chosen; any other light: its share of those lights' power"),
-    Column("area", 1, "area light: the shape's area in the tree's space"),
-    Column("edge_u", 3, "area light: a quad's, triangle's, disk's or mesh triangle's first edge (a disk's first radius), in the tree's space"),
-    Column("edge_v", 3, "area light: the second edge"),
-    Column("corner", 3, "area light: a mesh triangle's first corner (other shapes read theirs from prims_f)"),
-    Column("position", 3, "point and spot light: where it is (world)"),
-    Column("direction", 3, "spot light: the unit direction of its axis; directional and sun light: the unit direction from the scene toward the light"),
-    Column("radiance", 3, "point and spot light: intensity per solid angle (linear RGB); directional light: irradiance on a surface facing it; sun light: radiance of its disc"),
-    Column("size", 1, "point light: the radius of the sphere it is sampled as (0: a point); sun light: the cosine of the disc's angular radius"),
-    Column("cos_cutoff", 1, "spot light: cosine of the angle past which it sends nothing"),
-    Column("cutoff", 1, "spot light: that angle, in radians"),
-    Column("beam", 1, "spot light: the angle within which it sends its full intensity, in radians (the profile ramps linearly in angle from beam to cutoff)"),
-    Column("power", 1, "the light's power as its choice weighs it (luminance of the flux it sends into the scene)"),
-])
-LIGHT_KIND, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY, LIGHT_TREE_LEAF = LIGHT_I.offsets(
-    "kind", "instance", "primitive", "strategy", "tree_leaf")
-LIGHT_CDF, LIGHT_PMF, LIGHT_AREA, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNER = LIGHT_F.offsets(
-    "cdf", "pmf", "area", "edge_u", "edge_v", "corner")
-LIGHT_POSITION, LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_BEAM, LIGHT_POWER = LIGHT_F.offsets(
-    "position", "direction", "radiance", "size", "cos_cutoff", "cutoff", "beam", "power")
 
 # The least and most share of light samples the map gets when other lights are present too.
 MIN_CHOOSE = 0.1
@@ -144,7 +104,8 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
     tables, area_power = _area_lights(flat)
     # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
     extra: list[tuple[np.ndarray, np.ndarray]] = []
-    extra.append(_sun_rows(flat, graph))
+    extra.append(punctual_rows(graph, flat))  # point, spot and directional lights
+    extra.append(sun_rows(graph, flat))  # a sun_sky background's sun
     extra = [pair for pair in extra if len(pair[0])]
     other_flux = 0.0
     if extra:
@@ -165,6 +126,17 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
     return _place_sun(flat, tables)
 
 
+def _place_sun(flat, tables: dict) -> dict:
+    """The light tables with the sun's row (sun.py) named in the background row, where rays that
+    escape look it up (`radiance_escaped`): once the rows are in their final order."""
+    rows = np.flatnonzero(tables["light_i"][:, LIGHT_KIND] == SUN_LIGHT)
+    if len(rows) and len(flat.background) > BG_SUN:
+        background_row = np.array(flat.background, np.float64)
+        background_row[BG_SUN] = float(rows[0])
+        tables["background"] = background_row
+    return tables
+
+
 def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0) -> float:
     """choose: the probability that a light sample goes to the map, whose radiance integrated
     over the sphere is `env_power`, beside area lights of total power `area_power` (their world
@@ -179,31 +151,6 @@ def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0
     env = environment.flux(flat, env_power)
     share = env / (env + area) if math.isfinite(env + area) and env + area > 0.0 else 0.5
     return min(MAX_CHOOSE, max(MIN_CHOOSE, share))
-
-
-def _sun_rows(flat, graph) -> tuple[np.ndarray, np.ndarray]:
-    """The SUN_LIGHT row of a `sun_sky` background's sun (sun.py), none for any other background.
-    Its power is the flux pi R^2 E its irradiance E sends into the scene of bounding radius R
-    (environment.flux)."""
-    from scenefmt.sky import SunSkyBackground
-
-    sun = sun_of(graph.background) if graph is not None and isinstance(graph.background, SunSkyBackground) else None
-    if sun is None:
-        return LIGHT_I.array(0), LIGHT_F.array(0)
-    return (LIGHT_I.array(1, kind=SUN_LIGHT, instance=-1, primitive=-1, tree_leaf=-1),
-            LIGHT_F.array(1, direction=sun.direction, radiance=sun.radiance, size=sun.cos_radius,
-                                  power=environment.flux(flat, sun.irradiance)))
-
-
-def _place_sun(flat, tables: dict) -> dict:
-    """The light tables with the sun's row named in the background row, where rays that escape
-    look it up (lights.radiance_escaped)."""
-    rows = np.flatnonzero(tables["light_i"][:, LIGHT_KIND] == SUN_LIGHT)
-    if len(rows) and len(flat.background) > BG_SUN:
-        background_row = np.array(flat.background, np.float64)
-        background_row[BG_SUN] = float(rows[0])
-        tables["background"] = background_row
-    return tables
 
 
 def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
@@ -271,7 +218,7 @@ def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:
 def lights_to_sample(S):
     """Whether the scene has a light that `sample_li` can draw (a kernel compiled without light
     sampling and without an environment map has none: its code for them is left out)."""
-    return (LIGHTS or ENVIRONMENT) and S.light_i.shape[0] > 0
+    return (LIGHTS or ENVIRONMENT or PUNCTUAL) and S.light_i.shape[0] > 0
 
 
 @target.device
@@ -340,11 +287,20 @@ def sample_li(S, p, n, time, u0, u1, u2):
         if LIGHTS and kind == AREA_LIGHT:
             ok, x, wi, dist, pdf, le = sample_area_light(S, light, pmf, p, time, u1, u2)
             return ok, x, wi, dist, pdf * share, le, False
+        # Deltas (punctual.py): their density is the probability of their choice, and no MIS weight.
+        if PUNCTUAL and kind == POINT_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_point_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        if PUNCTUAL and kind == SPOT_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_spot_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        if PUNCTUAL and kind == DIRECTIONAL_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_directional_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        # The sun (sun.py): a disc that BSDF-sampled rays meet too, so no delta.
         if PUNCTUAL and kind == SUN_LIGHT:
             ok, x, wi, dist, pdf, le = sample_sun_light(S, light, pmf, p, time, u1, u2)
             return ok, x, wi, dist, pdf * share, le, False
-        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py): a case each here, calling the
-        # kind's sampler with the same arguments as the area light's.
     return False, p, zero, 0.0, 0.0, zero, False
 
 
@@ -406,54 +362,16 @@ def radiance_escaped(S, p, n_p, d, prev_pdf):
     return background(S.background, d)
 
 
-# --- the kernels: the sun (its disc's cone: sun.py) -------------------------------------------
-# The sun's two kernels read the light table's columns, declared here: they live here, and sun.py
-# keeps the cone's geometry and the disc's radiance, importing nothing of this module (so no
-# import circle).
-
-
-@target.device
-def sun_axis(S, light):
-    return (S.light_f[light, LIGHT_DIRECTION], S.light_f[light, LIGHT_DIRECTION + 1], S.light_f[light, LIGHT_DIRECTION + 2])
-
-
-@target.device
-def sun_radiance(S, light):
-    return (S.light_f[light, LIGHT_RADIANCE], S.light_f[light, LIGHT_RADIANCE + 1], S.light_f[light, LIGHT_RADIANCE + 2])
-
-
-@target.device
-def sample_sun_light(S, light, pmf, p, time, u1, u2):
-    """A direction to sun row `light`'s disc, uniform in the cone it subtends: (ok, the direction
-    (a light at infinity), the same unit direction, inf, its solid angle density times `pmf`,
-    the disc's radiance). Not a delta: BSDF-sampled rays meet the disc too."""
-    wi, pdf = sample_sun_cone(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], u1, u2)
-    return True, wi, wi, math.inf, pdf * pmf, sun_radiance(S, light)
-
-
-@target.device
-def pdf_sun_light(S, light, pmf, p, x, n, time):
-    """The density `sample_sun_light` gives the direction x (unit), times `pmf`: 0 outside the disc."""
-    return sun_cone_pdf(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], x) * pmf
-
-
 @target.device
 def sun_escaped(S, light, p, n_p, d, prev_pdf):
-    """The radiance of sun row `light` along d (any length) for a ray from p that meets nothing:
-    the disc's where d falls inside it, weighed against the sun's own sampler when the ray was
+    """The radiance of sun row `light` (sun.py) along d for a ray from p that meets nothing: the
+    disc's where d falls inside it, weighed against the sun's own sampler when the ray was
     BSDF-sampled with density prev_pdf > 0 (the map's weight is its own: each light at infinity
     is weighed alone)."""
-    zero = (0.0, 0.0, 0.0)
-    w = unit(d)
-    axis = sun_axis(S, light)
-    if dot(axis, w) < S.light_f[light, LIGHT_SIZE]:
-        return zero
-    le = sun_radiance(S, light)
-    if prev_pdf > 0.0 and lights_to_sample(S):
-        density = pdf_sun_light(S, light, light_pmf(S, light, p, n_p), p, w, w, 0.0) * share_of(S, light)
-        if density > 0.0:
-            k = bsdf_weight(prev_pdf, density)
-            le = (le[0] * k, le[1] * k, le[2] * k)
+    le, pdf = sun_along(S, light, d)
+    if pdf > 0.0 and prev_pdf > 0.0 and lights_to_sample(S):
+        w = bsdf_weight(prev_pdf, pdf * light_pmf(S, light, p, n_p) * share_of(S, light))
+        le = (le[0] * w, le[1] * w, le[2] * w)
     return le
 
 

@@ -102,3 +102,10 @@ def test_no_sun_no_punctual_and_other_backgrounds_neither():
     for background in ("[0.5, 0.7, 1.0]", "{type: sky}"):
         effects = summarize(graph_of(background)).kernel_paths
         assert not effects["environment"] and not effects["punctual"]
+
+
+def test_the_light_listing_names_the_sky_and_the_sun():
+    kinds = {k.kind: k for k in summarize(graph_of("{type: sun_sky, elevation: 40, azimuth: 200}")).lights}
+    assert set(kinds) == {"environment", "sun"} and "sun_sky" in kinds["environment"].reason
+    kinds = {k.kind for k in summarize(graph_of("{type: sun_sky, elevation: 40, azimuth: 200, sky: false}")).lights}
+    assert kinds == {"sun"}

@@ -21,6 +21,10 @@ For each scene (scenes/NAME.yaml at `--width`, the general kernel for both):
 
 The ratio is the power cdf's error over the tree's at equal time (> 1: the tree is better).
 
+`--cost SPP` measures instead what each sample costs: the least time of 3 renders of SPP samples
+per pixel by each estimator, alternating, with one seed (on the Cornell box the two images are the
+same bit for bit: its one light is chosen with pmf 1 either way).
+
 `--threshold` measures instead where the tree starts to pay: scenes of N small lamps (squares
 facing down under shades, over a floor, N = 2 .. 64) rendered by each estimator; with no reference, the error of each is
 taken from the film's own per-pixel variance of the mean (both are unbiased), times the seconds
@@ -30,6 +34,7 @@ spent, which is the equal-time figure.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -92,6 +97,29 @@ def equal_time(name: str, width: int, seconds: float, repeats: int, reference_sp
           f"ratio power / tree {power_error / tree_error:.2f}")
 
 
+def cost(name: str, width: int, spp: int, repeats: int = 3) -> None:
+    """Seconds per render of `spp` samples per pixel by each estimator, the least of `repeats`
+    alternating renders with one seed (the least is the one the machine's other work disturbed
+    least), and whether the two images are the same."""
+    from renderer.compile import with_width
+    from scenefmt.validation import load
+
+    graph = with_width(load(ROOT / "scenes" / f"{name}.yaml").graph, width)
+    tree, power = flats(graph, force=True)
+    render(graph, tree, 0, 1)
+    best = {"power": (math.inf, math.inf), "tree": (math.inf, math.inf)}
+    images = {}
+    for k in range(repeats):
+        for method, flat in (("power", power), ("tree", tree)) if k % 2 == 0 else (("tree", tree), ("power", power)):
+            image, wall, cpu, _ = render(graph, flat, 5, spp)
+            best[method] = (min(best[method][0], wall), min(best[method][1], cpu))
+            images[method] = image
+    same = np.array_equal(images["power"], images["tree"])
+    print(f"{name}: {spp} spp at {width} px wide, least of {repeats}: power {best['power'][0]:.2f} s wall, {best['power'][1]:.2f} s CPU; "
+          f"tree {best['tree'][0]:.2f} s wall, {best['tree'][1]:.2f} s CPU; the tree takes {best['tree'][0] / best['power'][0]:.3f} x the "
+          f"time; images {'the same, bit for bit' if same else 'differ'}")
+
+
 THRESHOLD_SCENE = """
 materials: {{white: {{type: lambertian, albedo: [0.6, 0.6, 0.6]}}, lamp: {{type: diffuse_light, emit: [20, 20, 20]}}}}
 camera: {{look_from: [0, 12, 6], look_at: [0, 0, 0], vfov: 60}}
@@ -141,10 +169,15 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--threshold", action="store_true", help="measure where the tree starts to pay instead")
+    parser.add_argument("--cost", type=int, default=0, metavar="SPP",
+                        help="measure instead the time of SPP samples per pixel by each estimator (least of 3)")
     args = parser.parse_args(argv)
     began = time.time()
     if args.threshold:
         threshold(args.seconds)
+    elif args.cost:
+        for name in args.scenes.split(","):
+            cost(name, args.width, args.cost)
     else:
         for name in args.scenes.split(","):
             equal_time(name, args.width, args.seconds, args.repeats, args.reference_spp)

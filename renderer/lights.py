@@ -41,6 +41,18 @@ A kind's sampler takes the pmf of its choice within its group from `select_light
 from the cdf, or from a light tree that weighs lights as seen from p (`light_pmf` gives it again
 for `pdf_li`).
 
+With many lights (`scenefmt.many_lights.wants_light_tree`: at least LIGHT_TREE_THRESHOLD of them
+with a place) `light_tables` also builds a light tree (light_tree.py) over the rows that have a
+place and some power: area lights, points and spots. The lights at infinity (the map, parallel
+light, the sun) stay outside it. The map keeps its share `choose`; among the rest, the tree is
+one entry of the power distribution, with the power of all its lights (its root's `share`), and
+each light outside it keeps its own power's share, so the cdf of `light_f` serves both: u0 finds
+a row by it as without a tree; a row outside the tree is chosen with its pmf as before, a row in
+the tree hands u0's place within its own interval (uniform in [0, 1) again) to the tree, which
+walks from its root to a light by importance at p. Where every light of positive power is in the
+tree (its share exactly 1), the cdf is not searched at all. A kernel compiled without the
+`light_tree` path never reads the tree's tables: `light_f`'s cdf and pmf stay valid always.
+
 Emission is two-sided (the books' diffuse light), so the conversion to solid angle takes the
 absolute cosine at the light.
 """
@@ -50,17 +62,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scenefmt.many_lights import wants_light_tree
+
 from . import target
 
 from . import environment
 from .background import BACKGROUND_IMAGE, BG_KIND, BG_SUN, background
 from .environment import environment_radiance, sample_environment
-from .kernel_flags import ENVIRONMENT, LIGHTS, PUNCTUAL
+from .kernel_flags import ENVIRONMENT, LIGHT_TREE, LIGHTS, PUNCTUAL
 from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONAL_LIGHT, ENVIRONMENT_LIGHT, KINDS, LIGHT_AREA,
                           LIGHT_BEAM, LIGHT_CDF, LIGHT_CORNER, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_EDGE_U,
                           LIGHT_EDGE_V, LIGHT_F, LIGHT_I, LIGHT_INSTANCE, LIGHT_KIND, LIGHT_PMF, LIGHT_POSITION, LIGHT_POWER,
                           LIGHT_PRIMITIVE, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_STRATEGY, LIGHT_TREE_LEAF, POINT_LIGHT, SPOT_LIGHT,
                           SUN_LIGHT)
+from .light_bounds import area_light_bounds, point_bounds, spot_bounds
+from .light_tree import LT_LIGHT, LT_SHARE, LTREE_F, LTREE_I, LightBounds, ONE_MINUS_EPSILON, build_light_tree, tree_choose, tree_pmf
 from .materials import MAT_READS_UV, emission_source, emitting_rows
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
@@ -87,10 +103,10 @@ GRAZING = 1e-10
 def no_lights(prims: int, instances: int) -> dict[str, np.ndarray]:
     """The light tables of a scene without lights."""
     return {"light_i": LIGHT_I.array(0), "light_f": LIGHT_F.array(0), "inst_light": np.zeros(instances, np.int32),
-            "prim_light": np.full(prims, -1, np.int32), "ltree_f": np.zeros((0, 1)), "ltree_i": np.zeros((0, 1), np.int32)}
+            "prim_light": np.full(prims, -1, np.int32), "ltree_f": LTREE_F.array(0), "ltree_i": LTREE_I.array(0)}
 
 
-def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
+def light_tables(flat, env_power: float, graph=None, tree: bool | None = None) -> dict[str, np.ndarray]:
     """The light tables of flat scene `flat` (made from `graph`), whose environment map (if any)
     sends the radiance `env_power` integrated over the sphere (environment.environment_tables's):
     `light_i`, `light_f`, `inst_light` (each instance's first area light row), `prim_light` (an
@@ -100,7 +116,10 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
 
     Rows: the map (when it sends light), the area lights, then the lights that are no shape (each
     kind's module makes its rows from the graph, with their `power`). Without those the area
-    lights' cdf is the one their measured power gives, as it always was."""
+    lights' cdf is the one their measured power gives, as it always was.
+
+    `tree` forces the light tree on or off (None: where `graph` has enough lights for it to
+    pay, scenefmt.many_lights.wants_light_tree, which also switches on the kernels' path)."""
     tables, area_power = _area_lights(flat)
     # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
     extra: list[tuple[np.ndarray, np.ndarray]] = []
@@ -122,7 +141,12 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
         tables["light_i"] = np.concatenate([LIGHT_I.array(1, kind=ENVIRONMENT_LIGHT, instance=-1, primitive=-1, tree_leaf=-1), tables["light_i"]])
         tables["light_f"] = np.concatenate([LIGHT_F.array(1, cdf=choose, pmf=choose), tables["light_f"]])
         tables["inst_light"] = tables["inst_light"] + np.int32(1)
-    # A light tree over the rows, where there are enough of them for one to pay: built here.
+    # A light tree over the rows, where there are enough of them for one to pay (the rows keep
+    # their order: the sun's is named below).
+    if tree is None:
+        tree = graph is not None and wants_light_tree(graph)
+    if tree:
+        tables.update(light_tree_tables(flat._replace(**{k: v for k, v in tables.items() if k in flat._fields})))
     return _place_sun(flat, tables)
 
 
@@ -135,6 +159,49 @@ def _place_sun(flat, tables: dict) -> dict:
         background_row[BG_SUN] = float(rows[0])
         tables["background"] = background_row
     return tables
+
+
+def light_tree_tables(flat) -> dict[str, np.ndarray]:
+    """The light tree over the lights of `flat` that have a place and some power: `ltree_f`,
+    `ltree_i` (empty where there is none) and `light_i` with each such row's `tree_leaf` set (a
+    copy; -1 for the rest). The root's share is the share of the power of the lights after the
+    map that the tree holds: exactly 1 where none outside it has any."""
+    light_i, light_f = flat.light_i.copy(), flat.light_f
+    light_i[:, LIGHT_TREE_LEAF] = -1
+    kind = light_i[:, LIGHT_KIND]
+    power = light_f[:, LIGHT_POWER]
+    area = np.flatnonzero((kind == AREA_LIGHT) & (power > 0.0))
+    parts = []
+    if len(area):
+        parts.append(area_light_bounds(flat, light_i[area, LIGHT_INSTANCE], light_i[area, LIGHT_PRIMITIVE],
+                                       light_f[area, LIGHT_EDGE_U:LIGHT_EDGE_U + 3], light_f[area, LIGHT_EDGE_V:LIGHT_EDGE_V + 3],
+                                       light_f[area, LIGHT_CORNER:LIGHT_CORNER + 3], power[area], front_only(flat, area)))
+    points = np.flatnonzero((kind == POINT_LIGHT) & (power > 0.0))
+    if len(points):
+        parts.append(point_bounds(light_f[points, LIGHT_POSITION:LIGHT_POSITION + 3], light_f[points, LIGHT_SIZE], power[points]))
+    spots = np.flatnonzero((kind == SPOT_LIGHT) & (power > 0.0))
+    if len(spots):
+        parts.append(spot_bounds(light_f[spots, LIGHT_POSITION:LIGHT_POSITION + 3], light_f[spots, LIGHT_DIRECTION:LIGHT_DIRECTION + 3],
+                                 light_f[spots, LIGHT_BEAM], light_f[spots, LIGHT_CUTOFF], power[spots]))
+    rows = np.concatenate([area, points, spots])
+    if not len(rows):
+        return {"ltree_f": LTREE_F.array(0), "ltree_i": LTREE_I.array(0), "light_i": light_i}
+    ltree_f, ltree_i, leaf_of = build_light_tree(LightBounds.join(parts))
+    leaf = ltree_i[:, LT_LIGHT] >= 0
+    ltree_i[leaf, LT_LIGHT] = rows[ltree_i[leaf, LT_LIGHT]]
+    light_i[rows, LIGHT_TREE_LEAF] = leaf_of
+    outside = np.ones(len(light_i), np.bool_)
+    outside[rows] = False
+    outside &= (kind != ENVIRONMENT_LIGHT) & (light_f[:, LIGHT_PMF] > 0.0)
+    ltree_f[0, LT_SHARE] = min(1.0, max(0.0, 1.0 - float(light_f[outside, LIGHT_PMF].sum()))) if outside.any() else 1.0
+    return {"ltree_f": ltree_f, "ltree_i": ltree_i, "light_i": light_i}
+
+
+def front_only(flat, rows: np.ndarray) -> np.ndarray:
+    """Whether each area light row of `rows` emits from its front only (its tree bound is then
+    the cone of its normal, not both sides of it). Every emitter is two-sided as in the books
+    until a material says otherwise: the one-sided area lights answer here."""
+    return np.zeros(len(rows), np.bool_)
 
 
 def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0) -> float:
@@ -245,8 +312,30 @@ def select_light(S, p, n, u0):
     if count <= 0:
         return -1, 0.0, 0.0
     # u0 rescaled to choose among the rest: exactly u0 when there is no map.
-    light = search_cdf(S.light_f, LIGHT_CDF, first, count, (u0 - choose) / (1.0 - choose))
+    u = (u0 - choose) / (1.0 - choose)
+    if LIGHT_TREE and S.ltree_i.shape[0] > 0:
+        light, pmf = select_with_tree(S, first, count, p, n, u)
+        return light, 1.0 - choose, pmf
+    light = search_cdf(S.light_f, LIGHT_CDF, first, count, u)
     return light, 1.0 - choose, S.light_f[light, LIGHT_PMF]
+
+
+@target.device
+def select_with_tree(S, first, count, p, n, u):
+    """A light among rows first.. (all but the map) for shading point p with normal n, by u in
+    [0, 1), and its pmf among them: by the cdf for the lights outside the tree, by the tree's
+    walk (with the tree's share) for those in it (see the module's docstring)."""
+    share = S.ltree_f[0, LT_SHARE]
+    if share < 1.0:
+        light = search_cdf(S.light_f, LIGHT_CDF, first, count, u)
+        if S.light_i[light, LIGHT_TREE_LEAF] < 0:
+            return light, S.light_f[light, LIGHT_PMF]
+        # u's place within the row's interval of the cdf: uniform in [0, 1) again.
+        lo = S.light_f[light - 1, LIGHT_CDF] if light > first else 0.0
+        width = S.light_f[light, LIGHT_CDF] - lo
+        u = min(max((u - lo) / width, 0.0), ONE_MINUS_EPSILON) if width > 0.0 else 0.0
+    light, pmf = tree_choose(S.ltree_f, S.ltree_i, p, n, u)
+    return light, share * pmf
 
 
 @target.device
@@ -255,6 +344,10 @@ def light_pmf(S, light, p, n):
     normal n (1 for the map)."""
     if light == 0 and map_choice(S) > 0.0:
         return 1.0
+    if LIGHT_TREE and S.ltree_i.shape[0] > 0:
+        leaf = S.light_i[light, LIGHT_TREE_LEAF]
+        if leaf >= 0:
+            return S.ltree_f[0, LT_SHARE] * tree_pmf(S.ltree_f, S.ltree_i, leaf, p, n)
     return S.light_f[light, LIGHT_PMF]
 
 

@@ -68,9 +68,12 @@ SUN_SKY_MAP_PIXELS = 512 * 256
 SUN_SKY_BYTES = 40_000_000 + SUN_SKY_MAP_PIXELS * ENVIRONMENT_EXTRA_BYTES_PER_PIXEL
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
-# A light row (renderer/lights.py: 4 integers and 12 doubles) per emitting primitive per placement,
-# with room for the per-primitive index: the light table grows with instancing like placements do.
-LIGHT_BYTES = 128
+# A light row per emitting primitive per placement (renderer/lights.py: 5 integers and 26 doubles,
+# 228 bytes), two nodes of a light tree (renderer/light_tree.py: 4 integers and 11 doubles each),
+# and what building the tree holds at its peak: 1,870 bytes a light in all, measured with
+# tracemalloc for 12,000 instanced spheres (tests/renderer/test_light_tree.py). The light table
+# grows with instancing like placements do.
+LIGHT_BYTES = 2_500
 # A mesh triangle at its peak while flattening: vertices, indices and per-triangle rows (about
 # 100 bytes kept, docs/meshes.md) plus the boxes, centroids and build arrays of its tree.
 MESH_TRIANGLE_BYTES = 300

@@ -13,6 +13,7 @@ from . import affine
 from .diagnostics import format_path
 from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
+from .many_lights import LIGHT_TREE_THRESHOLD, count_lights, wants_light_tree
 from .materials import SCALAR_SLOTS, emits
 from .scene import ImageBackground, SkyBackground
 from .sky import SunSkyBackground
@@ -293,6 +294,12 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
+    if emitters or getattr(graph, "lights", None):
+        count = count_lights(graph)
+        if wants_light_tree(graph, count):
+            found["light_tree"] = Effect("", True, f"{count.reason}; a tree chooses among them by what each may send")
+        elif count.total > 1 and graph.image.integrator == "mis":
+            found["light_tree"] = Effect("", False, f"{count.reason}; fewer than {LIGHT_TREE_THRESHOLD}: chosen by power")
     for key, members in by_material_effect.items():
         found[key] = Effect("", True, _first(members, lambda m, key=key: f"{format_path(m.path)} {MATERIAL_EFFECT_REASONS[key]}"))
     if with_meshes:

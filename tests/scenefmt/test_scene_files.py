@@ -105,6 +105,11 @@ EXPECTED = {
         {"quad": 5, "box": 2}, (600, 600), 64, 50,
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    # Issue 33: many lights, a night market of 1,040 stalls (instances of two groups) and 12,480 bulbs.
+    "many_lights.yaml": (
+        {"quad": 1, "instance": 1040}, (480, 270), 64, 6,
+        dict(look_from=(5, 26, 15), look_at=(0, 0, -1), vfov=50), (0.004, 0.006, 0.016),
+    ),
     "material_spheres.yaml": (
         {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=26), "image",
     ),
@@ -401,7 +406,7 @@ def test_the_torus_knot_is_the_one_meshgen_makes(tmp_path):
     assert scene("cornell_knot.yaml").materials["glass"].type == "dielectric"
 
 
-@pytest.mark.parametrize("script, small", [("generate.py", None), ("generate_sky.py", "sky.pfm")])
+@pytest.mark.parametrize("script, small", [("generate.py", None), ("generate_sky.py", "sky.pfm"), ("generate_many_lights.py", None)])
 def test_generated_files_are_up_to_date(script, small):
     """What each of the scripts in scenes/ writes is what is committed (--check), and the sky map
     it writes stays small."""

@@ -427,7 +427,8 @@ def area_ratio(inst_f, inst, n_world):
 @target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there), as
-    its material's `emission_source` says (two-sided, so the side is not asked)."""
+    its material's `emission_source` says, from the front (sample_area_light has refused the
+    back of a one-sided light before asking)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
     # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.

@@ -55,7 +55,7 @@ FLOOR = frozenset({
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
-    "renderer.background", "renderer.environment", "renderer.lights",
+    "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
 })
 
 

@@ -9,8 +9,9 @@ What it converts: quads, boxes and spheres (each with its transform), the camera
 black background, the materials that Mitsuba has an equal of (lambertian, diffuse_light,
 conductor, rough_dielectric, thin_dielectric, plastic), and the lights that are no shape (point,
 spot, directional: `emitter`). Anything else raises ValueError naming it, so a comparison never
-silently renders something else (textures, normal and bump maps, a point light's radius, a
-colour given as a temperature or a power included).
+silently renders something else (textures, normal and bump maps and a point light's radius
+included). A colour temperature or a power is converted as the model resolves it for the renderer
+(`radiance_slot`, `intensity_rgb`, `irradiance_rgb`): the comparison is of the kernels.
 
 Where the two renderers differ by convention, and what this module does about it:
 
@@ -110,9 +111,8 @@ def bsdf(model) -> tuple[str, dict]:
     if getattr(model, "normal_map", None) is not None or getattr(model, "bump_map", None) is not None:
         raise ValueError(f"the Mitsuba conversion does not convert the normal or bump map of a {kind} material")
     if kind == "diffuse_light":
-        if getattr(model, "temperature", None) is not None:
-            raise ValueError("the Mitsuba conversion takes a diffuse light's `emit` colour, not a temperature")
-        return "emitter", {"type": "area", "radiance": _rgb(_constant(model.emit, "emission"))}
+        # The radiance the renderer reads: `emit`, in the colour of a `temperature` where one is given.
+        return "emitter", {"type": "area", "radiance": _rgb(_constant(model.radiance_slot(), "emission"))}
     if kind == "lambertian":
         inner = {"type": "diffuse", "reflectance": _rgb(_constant(model.albedo, "albedo"))}
     elif kind == "conductor":
@@ -189,57 +189,30 @@ def shape(model, transform, slot: str, light_faces: float | None) -> dict:
     return {"type": kind, "to_world": mi.ScalarTransform4f((to_world @ m).tolist())}
 
 
-def _number_or_rgb(value, what: str) -> dict:
-    value = _constant(value, what)
-    return _rgb(value if isinstance(value, list) else [value] * 3)
-
-
-def _given(model, field: str, what: str):
-    value = getattr(model, field, None)
-    if value is None:
-        raise ValueError(f"the Mitsuba conversion needs the {model.type} light's {what}")
-    return value
-
-
-def _refuse_other_units(model, field: str) -> None:
-    """Refuse what the conversion would have to recompute as the renderer does: a colour given as a
-    temperature, an intensity given as a power."""
-    for other in ("temperature", "power"):
-        if getattr(model, other, None) is not None:
-            raise ValueError(f"the Mitsuba conversion takes a {model.type} light's `{field}` as a colour or "
-                             f"number, not a `{other}`")
-
-
 def emitter(model) -> dict:
-    """Mitsuba's emitter dict for one of our lights that are no shape (scene `lights:`)."""
+    """Mitsuba's emitter dict for one of our lights that are no shape (scene `lights:`), with the
+    numbers the renderer reads from the model: its intensity or irradiance per channel (a power
+    or a temperature already turned into them by the model), a spot's axis and beam width in
+    effect."""
     import mitsuba as mi
 
     kind = model.type
     if kind == "point":
-        _refuse_other_units(model, "intensity")
-        if getattr(model, "radius", 0.0):
-            raise ValueError("Mitsuba's point light has no radius")
-        return {"type": "point", "position": [float(x) for x in model.position],
-                "intensity": _number_or_rgb(_given(model, "intensity", "intensity"), "intensity")}
+        if model.radius:
+            raise ValueError("Mitsuba's point light has no radius: the conversion takes only a point light of radius 0")
+        return {"type": "point", "position": [float(x) for x in model.position], "intensity": _rgb(model.intensity_rgb())}
     if kind == "spot":
-        _refuse_other_units(model, "intensity")
         position = np.array(model.position, float)
-        look_at = getattr(model, "look_at", None)
-        axis = (np.array(look_at, float) - position) if look_at is not None else np.array(_given(model, "direction", "direction"), float)
-        axis /= np.linalg.norm(axis)
+        axis = np.array(model.axis(), float)
         # Mitsuba's spot shines along its local +z: look from the position along the axis, with any up
         # that is not the axis (the profile is round, so which one does not matter).
         up = [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0]
-        cutoff = float(model.cutoff_angle)
-        beam = getattr(model, "beam_width", None)
-        return {"type": "spot", "intensity": _number_or_rgb(_given(model, "intensity", "intensity"), "intensity"),
-                "cutoff_angle": cutoff, "beam_width": float(beam) if beam is not None else 0.75 * cutoff,
+        return {"type": "spot", "intensity": _rgb(model.intensity_rgb()), "cutoff_angle": float(model.cutoff_angle),
+                "beam_width": float(model.beam),
                 "to_world": mi.ScalarTransform4f().look_at(origin=position.tolist(), target=(position + axis).tolist(), up=up)}
     if kind == "directional":
-        _refuse_other_units(model, "irradiance")
-        direction = np.array(model.direction, float)
-        return {"type": "directional", "direction": (direction / np.linalg.norm(direction)).tolist(),
-                "irradiance": _number_or_rgb(_given(model, "irradiance", "irradiance"), "irradiance")}
+        return {"type": "directional", "direction": [-float(x) for x in model.toward_light()],
+                "irradiance": _rgb(model.irradiance_rgb())}
     raise ValueError(f"the Mitsuba conversion has no equal of a {kind} light")
 
 

@@ -1,6 +1,6 @@
 """Lights: the category. Its table, its one selection step, and the two questions the integrator asks.
 
-Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f`:
+Every light is a row of `light_i` (its kind, `LIGHT_KIND`) and of `light_f` (declared in light_table.py):
 
 - ENVIRONMENT_LIGHT, an image background (environment.py, the kind's module: its lookup and its
   sampler by brightness). At infinity: it gives directions, not points.
@@ -57,63 +57,23 @@ from . import target
 
 from . import environment
 from .background import BACKGROUND_IMAGE, BG_KIND, background
-from .columns import Column, Layout
 from .environment import environment_radiance, sample_environment
-from .kernel_flags import ENVIRONMENT, LIGHTS
+from .kernel_flags import ENVIRONMENT, LIGHTS, PUNCTUAL
+from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONAL_LIGHT, ENVIRONMENT_LIGHT, KINDS, LIGHT_AREA,
+                          LIGHT_BEAM, LIGHT_CDF, LIGHT_CORNER, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_EDGE_U,
+                          LIGHT_EDGE_V, LIGHT_F, LIGHT_I, LIGHT_INSTANCE, LIGHT_KIND, LIGHT_PMF, LIGHT_POSITION, LIGHT_POWER,
+                          LIGHT_PRIMITIVE, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_STRATEGY, LIGHT_TREE_LEAF, POINT_LIGHT, SPOT_LIGHT,
+                          SUN_LIGHT)
 from .materials import MAT_READS_UV, emission_source, emitting_rows, one_sided, one_sided_rows
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
+from .punctual import punctual_rows, sample_directional_light, sample_point_light, sample_spot_light
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
 from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
-
-# Kinds of light (light_i.kind).
-ENVIRONMENT_LIGHT = 0  # the image background, at infinity (environment.py)
-AREA_LIGHT = 1  # an emitting shape placed by an instance (below, sampled by its shape family)
-POINT_LIGHT = 2  # a point, or a small sphere that no ray meets (punctual.py)
-SPOT_LIGHT = 3  # a point sending light in a cone (punctual.py)
-DIRECTIONAL_LIGHT = 4  # parallel light from one direction at infinity (punctual.py)
-SUN_LIGHT = 5  # a disc at infinity of small angular size, met by rays that escape (sun.py)
-KINDS = {ENVIRONMENT_LIGHT: "environment", AREA_LIGHT: "area", POINT_LIGHT: "point", SPOT_LIGHT: "spot",
-         DIRECTIONAL_LIGHT: "directional", SUN_LIGHT: "sun"}
-
-# How an area light's points are drawn (light_i.strategy).
-BY_AREA = 0  # uniform on the surface
-BY_CONE = 1  # a sphere under a similarity: uniform in the cone it subtends where that exists
-BY_RECTANGLE = 2  # a rectangular quad under a similarity: uniform in the solid angle it subtends
-
-LIGHT_I = Layout("light_i", "int32", [
-    Column("kind", 1, "ENVIRONMENT_LIGHT (row 0 when present), AREA_LIGHT, POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT or SUN_LIGHT"),
-    Column("instance", 1, "area light: row of inst_i that places the light's tree"),
-    Column("primitive", 1, "area light: row of prims_i of the emitting primitive"),
-    Column("strategy", 1, "area light: BY_AREA, BY_CONE or BY_RECTANGLE"),
-    Column("tree_leaf", 1, "with a light tree: the node of light_tree that holds this light; -1 for a light the tree does not choose"),
-])
-LIGHT_F = Layout("light_f", "float64", [
-    Column("cdf", 1, "the map: choose; any other light: probability of choosing it or one before it among the lights after the map (the last row is 1)"),
-    Column("pmf", 1, "the map: choose, its probability of being chosen; any other light: its share of those lights' power"),
-    Column("area", 1, "area light: the shape's area in the tree's space"),
-    Column("edge_u", 3, "area light: a quad's, triangle's, disk's or mesh triangle's first edge (a disk's first radius), in the tree's space"),
-    Column("edge_v", 3, "area light: the second edge"),
-    Column("corner", 3, "area light: a mesh triangle's first corner (other shapes read theirs from prims_f)"),
-    Column("position", 3, "point and spot light: where it is (world)"),
-    Column("direction", 3, "spot light: the unit direction of its axis; directional and sun light: the unit direction from the scene toward the light"),
-    Column("radiance", 3, "point and spot light: intensity per solid angle (linear RGB); directional light: irradiance on a surface facing it; sun light: radiance of its disc"),
-    Column("size", 1, "point light: the radius of the sphere it is sampled as (0: a point); sun light: the cosine of the disc's angular radius"),
-    Column("cos_cutoff", 1, "spot light: cosine of the angle past which it sends nothing"),
-    Column("cutoff", 1, "spot light: that angle, in radians"),
-    Column("beam", 1, "spot light: the angle within which it sends its full intensity, in radians (the profile ramps linearly in angle from beam to cutoff)"),
-    Column("power", 1, "the light's power as its choice weighs it (luminance of the flux it sends into the scene)"),
-])
-LIGHT_KIND, LIGHT_INSTANCE, LIGHT_PRIMITIVE, LIGHT_STRATEGY, LIGHT_TREE_LEAF = LIGHT_I.offsets(
-    "kind", "instance", "primitive", "strategy", "tree_leaf")
-LIGHT_CDF, LIGHT_PMF, LIGHT_AREA, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNER = LIGHT_F.offsets(
-    "cdf", "pmf", "area", "edge_u", "edge_v", "corner")
-LIGHT_POSITION, LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_BEAM, LIGHT_POWER = LIGHT_F.offsets(
-    "position", "direction", "radiance", "size", "cos_cutoff", "cutoff", "beam", "power")
 
 # The least and most share of light samples the map gets when other lights are present too.
 MIN_CHOOSE = 0.1
@@ -146,6 +106,7 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
     tables, area_power = _area_lights(flat)
     # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
     extra: list[tuple[np.ndarray, np.ndarray]] = []
+    extra.append(punctual_rows(graph, flat))  # point, spot and directional lights
     extra = [pair for pair in extra if len(pair[0])]
     other_flux = 0.0
     if extra:
@@ -171,7 +132,8 @@ def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0
     over the sphere is `env_power`, beside area lights of total power `area_power` (their world
     area times radiance, halved for a one-sided light) and other lights of total flux
     `other_flux`. The map sends a scene of bounding radius R the flux pi R^2 env_power
-    (environment.flux), a two-sided area light 2 pi A L, a one-sided one pi A L. A map that sends nothing is never sampled (0); a map alone is always (1)."""
+    (environment.flux), a two-sided area light 2 pi A L, a one-sided one pi A L. A map that
+    sends nothing is never sampled (0); a map alone is always (1)."""
     if not env_power > 0.0:
         return 0.0
     if not area_power + other_flux > 0.0:
@@ -222,12 +184,12 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     light_i = LIGHT_I.array(len(prim), kind=AREA_LIGHT, instance=inst, primitive=prim, strategy=strategy, tree_leaf=-1)
     light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v, corner=corner)
     power = _powers(flat, light_i, light_f)
-    one_sided = one_sided_rows(flat.mat_i)[flat.prims_i[prim, PRIM_MATERIAL]]
-    if one_sided.any():
+    front_only = one_sided_rows(flat.mat_i)[flat.prims_i[prim, PRIM_MATERIAL]]
+    if front_only.any():
         # A one-sided light sends pi A L, half what a two-sided one of the same A L sends: its
         # choice and its share beside the map are weighed by that. (Only where there is one, so
         # the books' lights keep their cdf bit for bit.)
-        power = np.where(one_sided, 0.5 * power, power)
+        power = np.where(front_only, 0.5 * power, power)
     total = float(power.sum())
     if not total > 0.0:  # no light sends anything: nothing to sample
         return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
@@ -254,7 +216,7 @@ def _powers(flat, light_i: np.ndarray, light_f: np.ndarray) -> np.ndarray:
 def lights_to_sample(S):
     """Whether the scene has a light that `sample_li` can draw (a kernel compiled without light
     sampling and without an environment map has none: its code for them is left out)."""
-    return (LIGHTS or ENVIRONMENT) and S.light_i.shape[0] > 0
+    return (LIGHTS or ENVIRONMENT or PUNCTUAL) and S.light_i.shape[0] > 0
 
 
 @target.device
@@ -323,8 +285,17 @@ def sample_li(S, p, n, time, u0, u1, u2):
         if LIGHTS and kind == AREA_LIGHT:
             ok, x, wi, dist, pdf, le = sample_area_light(S, light, pmf, p, time, u1, u2)
             return ok, x, wi, dist, pdf * share, le, False
-        # POINT_LIGHT, SPOT_LIGHT, DIRECTIONAL_LIGHT (punctual.py) and SUN_LIGHT (sun.py): a case
-        # each here, calling the kind's sampler with the same arguments as the area light's.
+        # Deltas (punctual.py): their density is the probability of their choice, and no MIS weight.
+        if PUNCTUAL and kind == POINT_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_point_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        if PUNCTUAL and kind == SPOT_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_spot_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        if PUNCTUAL and kind == DIRECTIONAL_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_directional_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, True
+        # SUN_LIGHT (sun.py): a case here, calling the kind's sampler with the same arguments as the area light's.
     return False, p, zero, 0.0, 0.0, zero, False
 
 

@@ -73,6 +73,8 @@ def _summary_lines(loaded) -> list[str]:
         memory = graph.memory
         expanded = f", {memory.placements:,} instance placements" if memory.placements > 1 else ""
         lines.append(f"  memory: about {gib(memory.total)} ({memory.describe()}{expanded}); at most {gib(memory_limit())} here")
+    lines.append("  lights:" + ("" if summary.lights else " none (only the background lights the scene)"))
+    lines += [f"    {light}" for light in summary.lights]
     lines.append("  effects:")
     lines += [f"    {effect}" for effect in summary.effects]
     return lines

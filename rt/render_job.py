@@ -291,8 +291,10 @@ def prepare(opts: RenderOptions) -> PreparedScene:
         say(f"explain: the effects this scene uses, the kernel that renders it and what each expensive effect costs; "
             f"{follows} (rt validate lists the effects without rendering)", err=True)
         say(f"integrator: {graph.image.integrator}", err=True)
-        for effect in summarize(graph).effects:
+        summary = summarize(graph)
+        for effect in summary.effects:
             say(f"{effect}", err=True)
+        say("lights: " + (", ".join(str(light) for light in summary.lights) or "none (only the background lights the scene)"), err=True)
     fingerprint = None
     if opts.resume is not None or opts.save_state is not None:
         # The scene's canonical JSON, hashed: 25 ms for the final scene that other renders skip.

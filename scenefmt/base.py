@@ -8,6 +8,8 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints
 from pydantic_core import PydanticCustomError
 
+from .blackbody import MAX_KELVIN, MIN_KELVIN
+
 # Upper bounds that keep a hostile or mistyped file from asking for absurd work.
 MAX_IMAGE_SIDE = 32768
 MAX_SAMPLES = 1_000_000
@@ -76,6 +78,9 @@ Component = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0), Afte
 
 Color = Annotated[tuple[Component, Component, Component], BeforeValidator(_require_triple)]
 """A linear RGB colour `[r, g, b]`, each component >= 0; emitters may exceed 1."""
+
+Kelvin = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=MIN_KELVIN, le=MAX_KELVIN)]
+"""A colour temperature in kelvin, within the range scenefmt.blackbody gives colours for."""
 
 Name = Annotated[
     str,

@@ -447,8 +447,9 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
                 primitives += _rows(m)
     est.primitives = primitives * PRIMITIVE_BYTES + triangles * MESH_TRIANGLE_BYTES
     est.parts["shapes and trees"] = ("shapes",)
-    est.lights = root.lights * LIGHT_BYTES
-    est.parts["lights"] = ("shapes",)
+    # A row per emitting primitive placed, and one per light under `lights:`.
+    est.lights = (root.lights + len(graph.lights)) * LIGHT_BYTES
+    est.parts["lights"] = ("lights",) if len(graph.lights) > root.lights else ("shapes",)
     return est
 
 

@@ -33,6 +33,18 @@ class Effect:
         return f"{self.name}: {'on' if self.on else 'off'}" + (f" ({self.reason})" if self.reason else "")
 
 
+@dataclass(frozen=True)
+class LightKind:
+    """One kind of light a scene has: how many, and what in the scene makes them."""
+
+    kind: str  # area, environment, point, spot, directional, sun
+    count: int
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.kind}: {self.count} ({self.reason})"
+
+
 @dataclass
 class SceneSummary:
     """Counts by kind and the effects in use."""
@@ -43,6 +55,7 @@ class SceneSummary:
     texture_kinds: list[str] = field(default_factory=list)
     background: str = "solid"
     effects: list[Effect] = field(default_factory=list)
+    lights: list[LightKind] = field(default_factory=list)  # the kinds present, in the light table's order
 
     def effect(self, name: str) -> Effect:
         """The effect called `name` (as printed) or keyed `name` (as the kernel's flag)."""
@@ -61,6 +74,7 @@ class SceneSummary:
             "texture_kinds": self.texture_kinds,
             "background": self.background,
             "effects": {e.name: {"on": e.on, "reason": e.reason} for e in self.effects},
+            "lights": {light.kind: {"count": light.count, "reason": light.reason} for light in self.lights},
         }
 
 
@@ -130,6 +144,49 @@ def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Un
         if not known:
             return "is a sphere under a non-uniform scale or shear"
     return None
+
+
+def _placed_emitters(group: GroupNode, memo: dict) -> int:
+    """How many emitting shapes `group` places, each group counted once per instance that places it
+    (a sphere run's spheres one by one)."""
+    known = memo.get(id(group))
+    if known is not None:
+        return known
+    total = 0
+    for m in group.members:
+        if isinstance(m, InstanceNode):
+            total += _placed_emitters(m.group, memo)
+        elif isinstance(m, SphereRunNode):
+            total += sum(int(count) for material, count in zip(m.materials, m.material_count.tolist()) if emits(material.model))
+        elif m.material is not None and emits(m.material.model):
+            total += 1
+    memo[id(group)] = total
+    return total
+
+
+def light_kinds(graph: SceneGraph, emitters: list) -> list[LightKind]:
+    """The kinds of light `graph` has, with their counts and what makes them, in the light table's
+    order: emitting shapes (`emitters`, as summarize found them: each shape once, however often
+    instances place it), the environment map, the lights under `lights:`, the sun."""
+    found = []
+    if emitters:
+        defined = sum(item.count if isinstance(item, _RunPart) else 1 for item in emitters)
+        placed = _placed_emitters(graph.root, {})
+        reason = _first(emitters, lambda m: f"{format_path(m.path)} emits")
+        if placed != defined:
+            reason += f"; {placed} in all, as instances place them"
+        found.append(LightKind("area", placed, reason))
+    if isinstance(graph.background, ImageBackground):
+        found.append(LightKind("environment", 1, f"background: {{type: image, file: {graph.background.file}}}"))
+    for kind in ("point", "spot", "directional"):
+        which = [k for k, light in enumerate(graph.lights) if light.type == kind]
+        if which:
+            more = f" and {len(which) - 1} more" if len(which) > 1 else ""
+            found.append(LightKind(kind, len(which), f"lights[{which[0]}]{more}"))
+    background = graph.background
+    if getattr(background, "type", None) == "sun_sky" and getattr(background, "sun", False):
+        found.append(LightKind("sun", 1, "background: {type: sun_sky, sun: true}"))
+    return found
 
 
 def summarize(graph: SceneGraph) -> SceneSummary:
@@ -223,10 +280,16 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found[key] = Effect("", True, _first(members, lambda m, key=key: f"{format_path(m.path)} {MATERIAL_EFFECT_REASONS[key]}"))
     if with_meshes:
         found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
+    punctual = [(k, light) for k, light in enumerate(graph.lights)]
+    if punctual and graph.image.integrator == "mis":
+        found["punctual"] = Effect("", True, _first(punctual, lambda kl: f"lights[{kl[0]}] is a {kl[1].type} light"))
+    elif punctual:
+        found["punctual"] = Effect("", False, "image.integrator is path: point, spot and directional lights are never found")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS
     ]
+    summary.lights = light_kinds(graph, emitters)
     summary.texture_kinds = sorted(textures_by_kind)
     summary.background = graph.background.type
     summary.definition_counts = {

@@ -164,6 +164,9 @@ class SceneGraph:
     memory: Optional[bounds.MemoryEstimate] = None  # what rendering it needs (scenefmt.bounds)
     # An image background (environment map) as the image texture it is read as, at ("background",).
     environment: Optional[TextureNode] = None
+    # The scene's lights that are no shape (scenefmt.lights models, world space), in file order:
+    # light k is at ("lights", k).
+    lights: list = field(default_factory=list)
 
     @property
     def environment_path(self) -> Optional[Path]:
@@ -571,6 +574,10 @@ class _Resolver:
                 warnings.append(self.warn((), f"the scene is empty: {NO_SHAPES}"))
             else:
                 warnings.append(self.warn((), f"the scene has no shapes key: {NO_SHAPES}"))
+        if scene.lights and scene.image.integrator == "path":
+            # Valid, but they would light nothing: a path meets no point and no direction by chance.
+            warnings.append(self.warn(("lights",), "point, spot and directional lights light nothing with image.integrator "
+                                      "path, which finds a light only by hitting it; use mis (the default) to sample them"))
         background = scene.background
         if isinstance(background, tuple):
             background = SolidBackground(color=background)
@@ -593,6 +600,7 @@ class _Resolver:
             warnings=self.mesh_warnings + warnings,
             source=self.doc.file if self.doc is not None else None,
             environment=environment,
+            lights=list(scene.lights),
         )
 
     def environment(self, model: ImageBackground) -> TextureNode:

@@ -13,7 +13,8 @@ from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 
-from .base import Color, Name, Number, StrictModel, field_error, slot_kind
+from .base import Color, Kelvin, Name, Number, StrictModel, field_error, slot_kind
+from .blackbody import MAX_KELVIN, MIN_KELVIN, temperature_rgb
 from . import metals
 from .textures import TextureSlot
 
@@ -200,6 +201,23 @@ class DiffuseLight(StrictModel):
     sides: Literal["both", "front"] = Field(
         "both", description="Which faces emit: `both` (the books') or `front`, the face the shape's normal points out "
                             "of (a quad's u x v, a sphere's outside); the back of a `front` light is black.")
+    temperature: Optional[Kelvin] = Field(
+        None, description=f"Colour temperature in kelvin ({MIN_KELVIN:g} to {MAX_KELVIN:g}): the light has a black body's "
+        "colour (2700 a warm bulb, 6500 about white), and `emit` is then grey, [L, L, L], L the luminance of that colour.")
+
+    @model_validator(mode="after")
+    def _grey_with_temperature(self):
+        if self.temperature is not None and not (isinstance(self.emit, tuple) and self.emit[0] == self.emit[1] == self.emit[2]):
+            raise field_error("emit", "with a temperature, `emit` is grey, [L, L, L] with L the luminance of the "
+                              "temperature's colour, not another colour or a texture")
+        return self
+
+    def radiance_slot(self):
+        """`emit` with the temperature's colour applied: what the renderer's emission reads."""
+        if self.temperature is None:
+            return self.emit
+        tint = temperature_rgb(float(self.temperature))
+        return tuple(c * self.emit[0] for c in tint)
 
 
 class Isotropic(StrictModel):
@@ -377,7 +395,9 @@ def texture_fields(model) -> list[tuple[str, Any, str]]:
     fields = type(model).model_fields
     for key, role in COLOUR_SLOTS.items():
         if key in fields:
-            found.append((key, getattr(model, key), role))
+            # A diffuse light's emission with its colour temperature applied, if it has one.
+            value = model.radiance_slot() if key == "emit" and model.type == "diffuse_light" else getattr(model, key)
+            found.append((key, value, role))
     for key in MAP_SLOTS:
         if key in fields and getattr(model, key) is not None:
             found.append((key, getattr(model, key), "map"))

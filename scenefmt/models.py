@@ -1,6 +1,7 @@
 """Every scene-format model in one namespace, for users building scenes in Python."""
 
 from .base import Color, Name, Number, Vec3
+from .lights import DirectionalLight, Light, PointLight, SpotLight
 from .materials import Dielectric, DiffuseLight, Isotropic, Lambertian, Material, MaterialSlot, Metal
 from .media import ConstantMedium, Medium, MediumSlot
 from .scene import (
@@ -24,5 +25,5 @@ __all__ = [
     "Material", "MaterialSlot", "MatrixStep", "Mesh", "Medium", "MediumSlot", "Metal", "MovingSphere", "Name", "NoiseTexture",
     "Number", "Quad", "RotateStep", "Rotation", "ScaleStep", "Scene", "Shape", "Shutter", "SkyBackground",
     "SolidBackground", "SolidTexture", "Sphere", "Texture", "TextureSlot", "TransformStep", "TranslateStep",
-    "Triangle", "Vec3",
+    "Triangle", "Vec3", "Light", "PointLight", "SpotLight", "DirectionalLight",
 ]

@@ -25,6 +25,7 @@ from .base import (
     vec_length,
     vec_sub,
 )
+from .lights import Light
 from .materials import Material
 from .media import Medium
 from .shapes import Group, Shape
@@ -33,6 +34,7 @@ from .textures import Texture
 FORMAT_VERSION = 1
 MAX_SHAPES = 5_000_000
 MAX_INCLUDES = 256
+MAX_LIGHTS = 100_000
 
 IncludeName = Annotated[str, Field(min_length=1, max_length=4096)]
 _INCLUDE_SCHEMA = {
@@ -381,3 +383,9 @@ class Scene(StrictModel):
     media: dict[Name, Medium] = Field(default_factory=dict, description="Named participating media.")
     groups: dict[Name, Group] = Field(default_factory=dict, description="Named groups of shapes, placed by `instance` shapes.")
     shapes: list[Shape] = Field(default_factory=list, max_length=MAX_SHAPES, description="The shapes of the scene.")
+    lights: list[Light] = Field(
+        default_factory=list,
+        max_length=MAX_LIGHTS,
+        description="Lights that are no shape: `point`, `spot` and `directional`, in world space (no transform or "
+        "group applies to them). Emitting shapes (a `diffuse_light` material) are lights too, without being listed here.",
+    )

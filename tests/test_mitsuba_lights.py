@@ -53,28 +53,29 @@ def test_a_one_sided_quad_light_keeps_its_face_and_a_two_sided_one_is_turned():
     assert normal(mitsuba_scene.shape(up, identity, "emitter", -1.0))[1] < 0  # two-sided: turned down
 
 
-def test_lights_that_are_no_shape_become_mitsubas_with_the_same_numbers():
+def test_lights_that_are_no_shape_become_mitsubas_with_the_numbers_the_renderer_reads():
     pytest.importorskip("mitsuba")
     mitsuba_scene.set_variant()
+    from scenefmt.lights import DirectionalLight, PointLight, SpotLight
+    from scenefmt.materials import DiffuseLight
 
-    point = mitsuba_scene.emitter(SimpleNamespace(type="point", position=(1, 2, 3), intensity=5.0, radius=0.0))
+    point = mitsuba_scene.emitter(PointLight(position=(1, 2, 3), intensity=5.0))
     assert point == {"type": "point", "position": [1.0, 2.0, 3.0], "intensity": {"type": "rgb", "value": [5.0] * 3}}
-    spot = mitsuba_scene.emitter(SimpleNamespace(type="spot", position=(0, 2, 0), look_at=(0, 0, 0), intensity=(1, 2, 3),
-                                                 cutoff_angle=30.0, beam_width=None))
+    bulb = mitsuba_scene.emitter(PointLight(position=(0, 0, 0), power=100.0, temperature=2700))
+    assert bulb["intensity"]["value"] == pytest.approx(PointLight(position=(0, 0, 0), power=100.0, temperature=2700).intensity_rgb())
+    spot = mitsuba_scene.emitter(SpotLight(position=(0, 2, 0), look_at=(0, 0, 0), intensity=(1, 2, 3), cutoff_angle=30))
     assert spot["cutoff_angle"] == 30.0 and spot["beam_width"] == 22.5  # the format's default: 3/4 of the cut-off
+    assert spot["intensity"]["value"] == [1.0, 2.0, 3.0]
     m = np.array(spot["to_world"].matrix)
     assert np.allclose(m[:3, 2], [0, -1, 0]) and np.allclose(m[:3, 3], [0, 2, 0])  # local +z along the axis
-    along = mitsuba_scene.emitter(SimpleNamespace(type="spot", position=(0, 2, 0), look_at=None, direction=(1, 0, 0),
-                                                  intensity=1.0, cutoff_angle=20.0, beam_width=10.0))
+    along = mitsuba_scene.emitter(SpotLight(position=(0, 2, 0), direction=(3, 0, 0), cutoff_angle=20, beam_width=10))
     assert np.allclose(np.array(along["to_world"].matrix)[:3, 2], [1, 0, 0]) and along["beam_width"] == 10.0
-    sun = mitsuba_scene.emitter(SimpleNamespace(type="directional", direction=(0, -2, 0), irradiance=(1, 1, 2)))
+    sun = mitsuba_scene.emitter(DirectionalLight(direction=(0, -2, 0), irradiance=(1, 1, 2)))
     assert sun == {"type": "directional", "direction": [0.0, -1.0, 0.0], "irradiance": {"type": "rgb", "value": [1.0, 1.0, 2.0]}}
-    with pytest.raises(ValueError, match="temperature"):
-        mitsuba_scene.emitter(SimpleNamespace(type="point", position=(0, 0, 0), intensity=1.0, temperature=2700, radius=0.0))
-    with pytest.raises(ValueError, match="power"):
-        mitsuba_scene.emitter(SimpleNamespace(type="spot", position=(0, 0, 0), intensity=None, power=100.0, cutoff_angle=20.0))
+    _, warm = mitsuba_scene.bsdf(DiffuseLight(emit=(2, 2, 2), temperature=3000, sides="front"))
+    assert warm["radiance"]["value"] == pytest.approx(DiffuseLight(emit=(2, 2, 2), temperature=3000).radiance_slot())
     with pytest.raises(ValueError, match="radius"):
-        mitsuba_scene.emitter(SimpleNamespace(type="point", position=(0, 0, 0), intensity=1.0, radius=0.1))
+        mitsuba_scene.emitter(PointLight(position=(0, 0, 0), radius=0.1))
     with pytest.raises(ValueError, match="no equal"):
         mitsuba_scene.emitter(SimpleNamespace(type="sun"))
 

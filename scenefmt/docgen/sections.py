@@ -10,6 +10,7 @@ from pydantic import BaseModel
 
 from ..materials import Material
 from ..media import Medium
+from ..lights import Light
 from ..scene import Background, Scene
 from ..shapes import Group, Shape
 from ..textures import Texture
@@ -121,6 +122,19 @@ def build_sections() -> list[Section]:
             "`moving_sphere`, `box`) take a `material`, an `interior` medium, or both.",
             noun="shape",
             plural="shapes",
+        ),
+        Section(
+            "Lights",
+            union_models(Light),
+            intro="Lights that are no shape are listed under `lights:`, in world space (no transform or group applies "
+            "to them). A point or spot light's `intensity` is in W/sr and its `power` in watts, a directional light's "
+            "`irradiance` in W/m^2; each is a number or a colour `[r, g, b]`, and with a `temperature` (kelvin) a "
+            "number, the luminance of a black body's colour. Point, spot and directional lights are deltas: no ray "
+            "meets them by chance, so they light a scene only with `integrator: mis` (the default), which samples "
+            "them and gives their samples full weight. An emitting shape (a `diffuse_light` material) is a light "
+            "too. docs/lights.md gives the formulas and conventions.",
+            noun="light",
+            plural="lights",
         ),
         Section(
             "Groups",

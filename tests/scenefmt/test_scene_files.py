@@ -95,6 +95,11 @@ EXPECTED = {
         {"quad": 6, "sphere": 3}, (400, 400), 128, 50,
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    # Issue 33: the Cornell box lit by a spot light (lights:), its ceiling lamp removed.
+    "cornell_spot.yaml": (
+        {"quad": 5, "box": 2}, (600, 600), 64, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
     "material_spheres.yaml": (
         {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=26), "image",
     ),

@@ -36,8 +36,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from mitsuba_materials import compare, ours, theirs, triple
-from mitsuba_scene import set_variant
+from mitsuba_materials import compare, ours, triple
+from mitsuba_scene import render_passes, scene_dict, set_variant
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -70,6 +70,16 @@ def load_case(name: str, width: int):
     return with_width(load(ROOT / "scenes" / "cornell_box.yaml", {**CASES, **CONTROLS}[name][1]).graph, width)
 
 
+def theirs(graph, spp: int, pass_spp: int, seed: int):
+    """Mitsuba's render (mitsuba_materials.theirs) with its passes seeded from `seed`: passes k of
+    seed s use Mitsuba's seed 100000 s + k, so two seeds never share a pass."""
+    import mitsuba as mi
+
+    scene = mi.load_dict(scene_dict(graph, spp=pass_spp))
+    passes = render_passes(scene, pass_spp, passes=max(2, -(-spp // pass_spp)), seed=100000 * seed)
+    return passes.mean(), passes.mean_variance(), passes.samples, passes.seconds, passes.cpu_seconds
+
+
 def verdict(within_noise: bool, control: bool) -> str:
     """PASS for a case within noise; for a control, DIFFERS when the check sees its difference."""
     if control:
@@ -85,7 +95,8 @@ def main(argv=None) -> int:
     parser.add_argument("--mitsuba-spp", type=int, default=512, help="Mitsuba's samples per pixel")
     parser.add_argument("--mitsuba-pass", type=int, default=32, help="Mitsuba's samples per pass (its noise comes from their spread)")
     parser.add_argument("--block", type=int, default=8)
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--seed", type=int, default=1, help="ours, and Mitsuba's passes (from 100000 x seed): "
+                        "cases rendered with one seed share their random numbers, so their noise is alike")
     args = parser.parse_args(argv)
     import numba
 
@@ -102,7 +113,7 @@ def main(argv=None) -> int:
         for s in settings:
             print(f"  --set '{s}'")
         a = ours(graph, args.spp, args.seed)
-        b = theirs(graph, args.mitsuba_spp, args.mitsuba_pass)
+        b = theirs(graph, args.mitsuba_spp, args.mitsuba_pass, args.seed)
         r = compare(a[:2], b[:2], args.block)
         for label, run, mean, se in (("rt", a, r["mean_a"], r["se_a"]), ("mitsuba", b, r["mean_b"], r["se_b"])):
             print(f"  {label:8} {run[2]:>6} spp {run[3]:>7.1f} s wall {run[4]:>7.1f} s CPU   mean {triple(mean)}   "
@@ -118,7 +129,7 @@ def main(argv=None) -> int:
             failed.append(name)
         cache = Path(__file__).resolve().parent / ".cache"
         cache.mkdir(exist_ok=True)
-        np.savez(cache / f"mitsuba_lights-{name}-{args.width}.npz", rt=a[0], rt_var=a[1], mitsuba=b[0], mitsuba_var=b[1])
+        np.savez(cache / f"mitsuba_lights-{name}-{args.width}-seed{args.seed}.npz", rt=a[0], rt_var=a[1], mitsuba=b[0], mitsuba_var=b[1])
     print("\n| case | rt spp | Mitsuba spp | rt mean (R G B) | Mitsuba mean | rt / Mitsuba - 1 | z of the means | largest block z (bound) | |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, a, b, r, rel, control in rows:

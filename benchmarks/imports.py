@@ -29,7 +29,8 @@ lowest first:
    and random numbers; its tracing modules then import the categories, and those arrows run up:
    the folder was floor and roof at once.
 1. the categories, each owning one kind of scene element, its rows and its kernels: `shapes/*`,
-   `materials`, `textures`, `media`, `camera`, `background`, `environment`, `lights`.
+   `materials`, `textures`, `media`, `camera`, `background`, `environment`, `lights`, and the sun
+   and sky (`sky`, `sky_data`, `sun`).
 2. the tracing layer, `tracing/*`: traversal, shadow rays, the integrator, tiles, probes.
 3. everything else: flattening (`compile`), building trees (`bvh`), the render session and its executors,
    kernel variants, film and state.
@@ -56,6 +57,7 @@ FLOOR = frozenset({
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
     "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
+    "renderer.sky", "renderer.sky_data", "renderer.sun",
 })
 
 

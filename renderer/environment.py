@@ -100,21 +100,28 @@ def flux(flat, radiance: float) -> float:
 
 def environment_tables(flat, graph) -> tuple[dict[str, np.ndarray], float]:
     """The background row and environment tables of `flat`, and the map's radiance integrated
-    over the sphere (for lights.light_tables); nothing and 0 for a background that is not an image."""
+    over the sphere (for lights.light_tables); nothing and 0 for a background that is not an image
+    or a sun and sky (whose sky is computed into a map here: sky.sun_sky_map)."""
     from scenefmt.scene import ImageBackground
+    from scenefmt.sky import SunSkyBackground
 
     from .textures import load_image_texels
 
     bg = graph.background
-    if not isinstance(bg, ImageBackground):
+    if isinstance(bg, SunSkyBackground):
+        from .sky import sun_sky_map
+
+        rgb, turn = sun_sky_map(bg), 0.0
+    elif isinstance(bg, ImageBackground):
+        texels = load_image_texels(graph.environment_path, "srgb")  # float images as stored, 8-bit ones as sRGB
+        rgb = np.ascontiguousarray(texels * np.float32(bg.strength), dtype=np.float32)
+        turn = math.radians(bg.rotate)
+    else:
         return {}, 0.0
-    texels = load_image_texels(graph.environment_path, "srgb")  # float images as stored, 8-bit ones as sRGB
-    rgb = np.ascontiguousarray(texels * np.float32(bg.strength), dtype=np.float32)
     h, w = rgb.shape[:2]
     rows, texel_f, power = tables(rgb)
-    turn = math.radians(bg.rotate)
     row = IMAGE_BACKGROUND.row(kind=float(BACKGROUND_IMAGE), width=float(w), height=float(h), cos_rotate=math.cos(turn),
-                               sin_rotate=math.sin(turn))
+                               sin_rotate=math.sin(turn), sun=-1.0)
     return {"background": np.array(row, np.float64), "env_rgb": rgb.reshape(-1, 3), "env_row_f": rows, "env_texel_f": texel_f}, power
 
 

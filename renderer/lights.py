@@ -56,7 +56,7 @@ import numpy as np
 from . import target
 
 from . import environment
-from .background import BACKGROUND_IMAGE, BG_KIND, background
+from .background import BACKGROUND_IMAGE, BG_KIND, BG_SUN, background
 from .environment import environment_radiance, sample_environment
 from .kernel_flags import ENVIRONMENT, LIGHTS, PUNCTUAL
 from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONAL_LIGHT, ENVIRONMENT_LIGHT, KINDS, LIGHT_AREA,
@@ -68,6 +68,7 @@ from .materials import MAT_READS_UV, emission_source, emitting_rows, one_sided, 
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
 from .punctual import punctual_rows, sample_directional_light, sample_point_light, sample_spot_light
+from .sun import pdf_sun_light, sample_sun_light, sun_along, sun_rows
 from .numerics.vec import dot, madd, neg, scale, sub, unit, xform_normal, xform_point
 from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
@@ -107,6 +108,7 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
     # The rows of the lights that are no shape: (light_i, light_f) pairs, each kind's own.
     extra: list[tuple[np.ndarray, np.ndarray]] = []
     extra.append(punctual_rows(graph, flat))  # point, spot and directional lights
+    extra.append(sun_rows(graph, flat))  # a sun_sky background's sun
     extra = [pair for pair in extra if len(pair[0])]
     other_flux = 0.0
     if extra:
@@ -124,6 +126,17 @@ def light_tables(flat, env_power: float, graph=None) -> dict[str, np.ndarray]:
         tables["light_f"] = np.concatenate([LIGHT_F.array(1, cdf=choose, pmf=choose), tables["light_f"]])
         tables["inst_light"] = tables["inst_light"] + np.int32(1)
     # A light tree over the rows, where there are enough of them for one to pay: built here.
+    return _place_sun(flat, tables)
+
+
+def _place_sun(flat, tables: dict) -> dict:
+    """The light tables with the sun's row (sun.py) named in the background row, where rays that
+    escape look it up (`radiance_escaped`): once the rows are in their final order."""
+    rows = np.flatnonzero(tables["light_i"][:, LIGHT_KIND] == SUN_LIGHT)
+    if len(rows) and len(flat.background) > BG_SUN:
+        background_row = np.array(flat.background, np.float64)
+        background_row[BG_SUN] = float(rows[0])
+        tables["background"] = background_row
     return tables
 
 
@@ -295,7 +308,10 @@ def sample_li(S, p, n, time, u0, u1, u2):
         if PUNCTUAL and kind == DIRECTIONAL_LIGHT:
             ok, x, wi, dist, pdf, le = sample_directional_light(S, light, pmf, p, time, u1, u2)
             return ok, x, wi, dist, pdf * share, le, True
-        # SUN_LIGHT (sun.py): a case here, calling the kind's sampler with the same arguments as the area light's.
+        # The sun (sun.py): a disc that BSDF-sampled rays meet too, so no delta.
+        if PUNCTUAL and kind == SUN_LIGHT:
+            ok, x, wi, dist, pdf, le = sample_sun_light(S, light, pmf, p, time, u1, u2)
+            return ok, x, wi, dist, pdf * share, le, False
     return False, p, zero, 0.0, 0.0, zero, False
 
 
@@ -313,8 +329,10 @@ def pdf_li(S, light, p, n_p, x, n, time):
         return share_of(S, light) * pdf
     if LIGHTS and kind == AREA_LIGHT:
         return pdf_area_light(S, light, light_pmf(S, light, p, n_p), p, x, n, time) * share_of(S, light)
+    if PUNCTUAL and kind == SUN_LIGHT:
+        # A ray that escapes within the disc meets it.
+        return pdf_sun_light(S, light, light_pmf(S, light, p, n_p), p, x, n, time) * share_of(S, light)
     # POINT_LIGHT, SPOT_LIGHT: no BSDF-sampled ray meets a point; DIRECTIONAL_LIGHT: nor a direction.
-    # SUN_LIGHT: a case here (a ray that escapes within the disc meets it).
     return 0.0
 
 
@@ -348,8 +366,24 @@ def radiance_escaped(S, p, n_p, d, prev_pdf):
         if light > 0.0 and prev_pdf > 0.0:
             w = bsdf_weight(prev_pdf, light)
             le = (le[0] * w, le[1] * w, le[2] * w)
+        if PUNCTUAL and S.background[BG_SUN] >= 0.0:
+            sun = sun_escaped(S, int(S.background[BG_SUN]), p, n_p, d, prev_pdf)
+            le = (le[0] + sun[0], le[1] + sun[1], le[2] + sun[2])
         return le
     return background(S.background, d)
+
+
+@target.device
+def sun_escaped(S, light, p, n_p, d, prev_pdf):
+    """The radiance of sun row `light` (sun.py) along d for a ray from p that meets nothing: the
+    disc's where d falls inside it, weighed against the sun's own sampler when the ray was
+    BSDF-sampled with density prev_pdf > 0 (the map's weight is its own: each light at infinity
+    is weighed alone)."""
+    le, pdf = sun_along(S, light, d)
+    if pdf > 0.0 and prev_pdf > 0.0 and lights_to_sample(S):
+        w = bsdf_weight(prev_pdf, pdf * light_pmf(S, light, p, n_p) * share_of(S, light))
+        le = (le[0] * w, le[1] * w, le[2] * w)
+    return le
 
 
 # --- the kernels: area lights -----------------------------------------------------------------

@@ -54,6 +54,7 @@ class RarePathPrior:
 
 def rare_path_prior(flat) -> Optional[RarePathPrior]:
     """The prior of a flat scene (compile.compile_scene), or None when it has no sharp surface or no light."""
+    from .lights import LIGHT_KIND, LIGHT_RADIANCE, SUN_LIGHT
     from .materials import emitting_rows
     from .materials.table import emission_rows, sharp_rows
     from .textures import texture_peak
@@ -63,6 +64,9 @@ def rare_path_prior(flat) -> Optional[RarePathPrior]:
     candidates = []
     if flat.env_rgb.size:
         candidates.append((float(np.max(flat.env_rgb)), "the environment map's brightest texels"))
+    suns = flat.light_i[:, LIGHT_KIND] == SUN_LIGHT
+    if suns.any():  # a small, bright disc that sharp surfaces show only to the paths that find it
+        candidates.append((float(np.max(flat.light_f[suns, LIGHT_RADIANCE:LIGHT_RADIANCE + 3])), "the sun's disc"))
     if len(flat.mat_i):
         emits = np.zeros(len(flat.mat_i), np.bool_)
         emitting_rows(flat.mat_i, emits)

@@ -61,6 +61,11 @@ HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
 # sampling tables renderer/environment.py builds in float64: the luminance times sin(theta), each
 # texel's density and its row's cumulative sum, with one temporary of each.
 ENVIRONMENT_EXTRA_BYTES_PER_PIXEL = 12 + 6 * 8
+# A sun_sky background's map (renderer/sky.py: MAP_WIDTH x MAP_HEIGHT texels, whatever the scene):
+# its directions and the model's temporaries while it is computed (40 MB measured at the peak),
+# then a map's radiance and sampling tables.
+SUN_SKY_MAP_PIXELS = 512 * 256
+SUN_SKY_BYTES = 40_000_000 + SUN_SKY_MAP_PIXELS * ENVIRONMENT_EXTRA_BYTES_PER_PIXEL
 PLACEMENT_BYTES = 1500
 PRIMITIVE_BYTES = 1000
 # A light row (renderer/lights.py: 4 integers and 12 doubles) per emitting primitive per placement,
@@ -433,6 +438,10 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
             est.textures += n
             if n > biggest[0]:
                 biggest = (n, node.path + ("file",))
+    if getattr(graph.background, "type", None) == "sun_sky":
+        est.textures += SUN_SKY_BYTES
+        if SUN_SKY_BYTES > biggest[0]:
+            biggest = (SUN_SKY_BYTES, ("background",))
     est.parts["textures"] = biggest[1]
     est.placements = root.placements
     est.expanded_shapes = root.shapes

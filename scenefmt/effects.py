@@ -15,6 +15,7 @@ from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
 from .materials import SCALAR_SLOTS, emits
 from .scene import ImageBackground, SkyBackground
+from .sky import SunSkyBackground
 
 # (key, name), from the one table of effects: the key is the kernel path's flag
 # (renderer/kernel_flags.py), the name is what users read.
@@ -146,6 +147,18 @@ def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Un
     return None
 
 
+def sun_sky_effects(bg: SunSkyBackground, integrator: str) -> dict[str, Effect]:
+    """The effects a `sun_sky` background calls for: its sky is an environment map (even without
+    a sky: the map is then black, and the sun's disc is looked up beside it), and its sun a light
+    that is no shape, which rays escaping toward its disc meet whatever the integrator."""
+    how = "sampled as a light" if integrator == "mis" else "found by chance (image.integrator is path)"
+    found = {"environment": Effect("", True, f"background: sun_sky, its sky {how}" if bg.sky else
+                                   "background: sun_sky, the sun's disc beside a black sky")}
+    if bg.sun:
+        found["punctual"] = Effect("", True, f"background: sun_sky, its sun {how}")
+    return found
+
+
 def _placed_emitters(group: GroupNode, memo: dict) -> int:
     """How many emitting shapes `group` places, each group counted once per instance that places it
     (a sphere run's spheres one by one)."""
@@ -178,6 +191,8 @@ def light_kinds(graph: SceneGraph, emitters: list) -> list[LightKind]:
         found.append(LightKind("area", placed, reason))
     if isinstance(graph.background, ImageBackground):
         found.append(LightKind("environment", 1, f"background: {{type: image, file: {graph.background.file}}}"))
+    if isinstance(graph.background, SunSkyBackground) and graph.background.sky and graph.background.strength > 0:
+        found.append(LightKind("environment", 1, "background: {type: sun_sky, sky: true}, its sky as a map"))
     for kind in ("point", "spot", "directional"):
         which = [k for k, light in enumerate(graph.lights) if light.type == kind]
         if which:
@@ -272,6 +287,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     if isinstance(graph.background, ImageBackground):
         how = "sampled as a light" if graph.image.integrator == "mis" else "found by chance (image.integrator is path)"
         found["environment"] = Effect("", True, f"background: {{type: image, file: {graph.background.file}}}, {how}")
+    if isinstance(graph.background, SunSkyBackground):
+        found.update(sun_sky_effects(graph.background, graph.image.integrator))
     if emitters and graph.image.integrator == "mis":
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
@@ -283,7 +300,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     punctual = [(k, light) for k, light in enumerate(graph.lights)]
     if punctual and graph.image.integrator == "mis":
         found["punctual"] = Effect("", True, _first(punctual, lambda kl: f"lights[{kl[0]}] is a {kl[1].type} light"))
-    elif punctual:
+    elif punctual and "punctual" not in found:  # a sun's disc keeps the path on: escaping rays meet it
         found["punctual"] = Effect("", False, "image.integrator is path: point, spot and directional lights are never found")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)

@@ -24,6 +24,7 @@ from .named_files import NamedFileProblem, locate_named_file
 from .materials import Material, texture_fields
 from .media import ConstantMedium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
+from .sky import SunSkyBackground
 from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, SphereColumns, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture
 
@@ -153,7 +154,7 @@ class SceneGraph:
     camera: Camera
     image: Image
     shutter: Shutter
-    background: Union[SolidBackground, SkyBackground, ImageBackground]
+    background: Union[SolidBackground, SkyBackground, ImageBackground, SunSkyBackground]
     root: GroupNode
     textures: list[TextureNode]
     materials: list[MaterialNode]

@@ -15,6 +15,7 @@ from .scene import (
     SkyBackground,
     SolidBackground,
 )
+from .sky import SunSkyBackground
 from .shapes import Box, Disk, Group, GroupSlot, Instance, Mesh, MovingSphere, Quad, Shape, Sphere, Triangle
 from .textures import CheckerTexture, ImageTexture, NoiseTexture, SolidTexture, Texture, TextureSlot
 from .transforms import MatrixStep, RotateStep, Rotation, ScaleStep, TransformStep, TranslateStep
@@ -24,6 +25,6 @@ __all__ = [
     "DiffuseLight", "Disk", "Group", "GroupSlot", "Image", "ImageBackground", "ImageTexture", "Instance", "Isotropic", "Lambertian",
     "Material", "MaterialSlot", "MatrixStep", "Mesh", "Medium", "MediumSlot", "Metal", "MovingSphere", "Name", "NoiseTexture",
     "Number", "Quad", "RotateStep", "Rotation", "ScaleStep", "Scene", "Shape", "Shutter", "SkyBackground",
-    "SolidBackground", "SolidTexture", "Sphere", "Texture", "TextureSlot", "TransformStep", "TranslateStep",
+    "SolidBackground", "SolidTexture", "Sphere", "SunSkyBackground", "Texture", "TextureSlot", "TransformStep", "TranslateStep",
     "Triangle", "Vec3", "Light", "PointLight", "SpotLight", "DirectionalLight",
 ]

@@ -29,6 +29,7 @@ from .lights import Light
 from .materials import Material
 from .media import Medium
 from .shapes import Group, Shape
+from .sky import SunSkyBackground
 from .textures import Texture
 
 FORMAT_VERSION = 1
@@ -321,7 +322,7 @@ def _background_kind(value: Any) -> str | None:
         return "color"
     if isinstance(value, dict):
         return value.get("type") if isinstance(value.get("type"), str) else None
-    if isinstance(value, (SolidBackground, SkyBackground, ImageBackground)):
+    if isinstance(value, (SolidBackground, SkyBackground, ImageBackground, SunSkyBackground)):
         return value.type
     return None
 
@@ -332,14 +333,15 @@ Background = Annotated[
         Annotated[SolidBackground, Tag("solid")],
         Annotated[SkyBackground, Tag("sky")],
         Annotated[ImageBackground, Tag("image")],
+        Annotated[SunSkyBackground, Tag("sun_sky")],
     ],
     Discriminator(
         _background_kind,
         custom_error_type="background",
-        custom_error_message="expected a colour [r, g, b], {type: solid, ...}, {type: sky, ...} or {type: image, ...}",
+        custom_error_message="expected a colour [r, g, b], {type: solid, ...}, {type: sky, ...}, {type: image, ...} or {type: sun_sky, ...}",
     ),
 ]
-"""A colour triple, a solid background, the sky gradient or an environment map."""
+"""A colour triple, a solid background, the sky gradient, an environment map or the sun and sky."""
 
 
 class Scene(StrictModel):
@@ -374,8 +376,8 @@ class Scene(StrictModel):
     shutter: Shutter = Field(default_factory=Shutter, description="Shutter interval, for motion blur.")
     background: Background = Field(
         default_factory=SkyBackground,
-        description="Radiance of rays that leave the scene: a colour, `solid`, `sky` or an `image` (an environment "
-        "map). The default is the first "
+        description="Radiance of rays that leave the scene: a colour, `solid`, `sky`, an `image` (an environment "
+        "map) or `sun_sky` (a physically based sun and sky). The default is the first "
         "book's sky gradient, so a scene without lights is still visible; the second book's scenes set it explicitly.",
     )
     textures: dict[Name, Texture] = Field(default_factory=dict, description="Named textures.")

@@ -78,6 +78,11 @@ EXPECTED = {
     "sky_spheres.yaml": (
         {"sphere": 4}, (320, 180), 64, 16, dict(look_from=(0, 1.1, 4.5), look_at=(0, 0.45, 0), vfov=35), "image",
     ),
+    # Not from the books: issue 33's sun and sky over a few objects on a ground.
+    "sun_sky.yaml": (
+        {"quad": 1, "sphere": 3, "box": 1}, (320, 180), 64, 16, dict(look_from=(0, 1.4, 6), look_at=(0, 0.6, 0), vfov=38),
+        "sun_sky",
+    ),
     # Not from the books: issue 31's material families, one Cornell box each, and a row of them under the map.
     "cornell_conductor.yaml": (
         {"quad": 6, "sphere": 2}, (400, 400), 128, 50,
@@ -150,6 +155,8 @@ def test_scene_file_loads_with_book_settings(path: Path):
     elif background == "image":
         assert sc.background.file == "sky.pfm"
         assert result.graph.environment_path == (SCENES / "sky.pfm").resolve()
+    elif background == "sun_sky":
+        assert sc.background.type == "sun_sky" and sc.background.sun and sc.background.sky
     else:
         assert tuple(sc.background) == pytest.approx(background)
 

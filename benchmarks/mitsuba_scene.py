@@ -6,18 +6,27 @@
     passes = render_passes(scene, spp=4, seconds=10)  # or passes=...
 
 What it converts: quads, boxes and spheres (each with its transform), the camera (no defocus), a
-black background, and the materials that Mitsuba has an equal of (lambertian, diffuse_light,
-conductor, rough_dielectric, thin_dielectric, plastic). Anything else raises ValueError naming it,
-so a comparison never silently renders something else (textures, normal and bump maps included).
+black background, the materials that Mitsuba has an equal of (lambertian, diffuse_light,
+conductor, rough_dielectric, thin_dielectric, plastic), and the lights that are no shape (point,
+spot, directional: `emitter`). Anything else raises ValueError naming it, so a comparison never
+silently renders something else (textures, normal and bump maps and a point light's radius
+included). A colour temperature or a power is converted as the model resolves it for the renderer
+(`radiance_slot`, `intensity_rgb`, `irradiance_rgb`): the comparison is of the kernels.
 
 Where the two renderers differ by convention, and what this module does about it:
 
 - Our surfaces scatter on both sides; Mitsuba's reflecting BSDFs only on the front. Each such
   BSDF is wrapped in Mitsuba's `twosided`. Dielectrics are two-sided in both.
-- Our area lights emit from both sides; Mitsuba's only along the shape's normal. A quad light
-  is turned to face +y or -y as `light_faces` says (down, into the Cornell box, by default); the
-  light its back would send must not matter to the image (put the lamp flush with the ceiling, as
+- A one-sided light (`sides: front`) is Mitsuba's area light as it is: both emit along the
+  shape's normal (a quad's u x v, which becomes the normal of Mitsuba's rectangle; a sphere's and
+  a box's outside). The books' two-sided light has no equal: a two-sided quad light is turned to
+  face +y or -y as `light_faces` says (down, into the Cornell box, by default), and the light its
+  back would send must not matter to the image (put the lamp flush with the ceiling, as
   `FLUSH_LAMP` does for the shipped Cornell box).
+- Point, spot and directional lights are Mitsuba's `point`, `spot` and `directional` with the
+  same numbers: intensity in W/sr, irradiance in W/m^2, the direction the light travels, and the
+  spot's cut-off and beam angles in degrees, whose profile (full within the beam, falling
+  linearly in angle to 0 at the cut-off) is Mitsuba's by construction.
 - Depth: the same number in both. Mitsuba's `max_depth` 1 renders only the emitters the camera
   sees and 2 direct light; our `max_depth` counts the segments of a path the same way (1: the
   camera ray's own hit). Measured at depths 1 to 3 on the Cornell box (DEPTH_OFFSET 0; 1 gave
@@ -102,7 +111,8 @@ def bsdf(model) -> tuple[str, dict]:
     if getattr(model, "normal_map", None) is not None or getattr(model, "bump_map", None) is not None:
         raise ValueError(f"the Mitsuba conversion does not convert the normal or bump map of a {kind} material")
     if kind == "diffuse_light":
-        return "emitter", {"type": "area", "radiance": _rgb(_constant(model.emit, "emission"))}
+        # The radiance the renderer reads: `emit`, in the colour of a `temperature` where one is given.
+        return "emitter", {"type": "area", "radiance": _rgb(_constant(model.radiance_slot(), "emission"))}
     if kind == "lambertian":
         inner = {"type": "diffuse", "reflectance": _rgb(_constant(model.albedo, "albedo"))}
     elif kind == "conductor":
@@ -142,15 +152,22 @@ def bsdf(model) -> tuple[str, dict]:
     return "bsdf", {"type": "twosided", "bsdf": inner}
 
 
-def shape(model, transform, slot: str, light_faces: float) -> dict:
-    """Mitsuba's shape dict for one of our shapes (without its material)."""
+def one_sided(material) -> bool:
+    """Whether a material model emits from its front face only, as every Mitsuba area light does."""
+    return getattr(material, "sides", "both") == "front"
+
+
+def shape(model, transform, slot: str, light_faces: float | None) -> dict:
+    """Mitsuba's shape dict for one of our shapes (without its material). A two-sided quad light
+    is turned to face the sign of y `light_faces`; None keeps every quad as it is (its normal
+    u x v), as a one-sided light must be."""
     import mitsuba as mi
 
     to_world = _affine4(transform)
     m = np.eye(4)
     if model.type == "quad":
         q, u, v = (np.array(x, float) for x in (model.q, model.u, model.v))
-        if slot == "emitter" and np.cross(u, v)[1] * light_faces < 0:
+        if slot == "emitter" and light_faces is not None and np.cross(u, v)[1] * light_faces < 0:
             u, v = v, u  # one-sided in Mitsuba: face it the way the lamp is to shine
         n = np.cross(u, v)
         # Mitsuba's rectangle is [-1, 1]^2 in x, y with normal +z: map it onto q + a u + b v.
@@ -172,9 +189,37 @@ def shape(model, transform, slot: str, light_faces: float) -> dict:
     return {"type": kind, "to_world": mi.ScalarTransform4f((to_world @ m).tolist())}
 
 
+def emitter(model) -> dict:
+    """Mitsuba's emitter dict for one of our lights that are no shape (scene `lights:`), with the
+    numbers the renderer reads from the model: its intensity or irradiance per channel (a power
+    or a temperature already turned into them by the model), a spot's axis and beam width in
+    effect."""
+    import mitsuba as mi
+
+    kind = model.type
+    if kind == "point":
+        if model.radius:
+            raise ValueError("Mitsuba's point light has no radius: the conversion takes only a point light of radius 0")
+        return {"type": "point", "position": [float(x) for x in model.position], "intensity": _rgb(model.intensity_rgb())}
+    if kind == "spot":
+        position = np.array(model.position, float)
+        axis = np.array(model.axis(), float)
+        # Mitsuba's spot shines along its local +z: look from the position along the axis, with any up
+        # that is not the axis (the profile is round, so which one does not matter).
+        up = [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0]
+        return {"type": "spot", "intensity": _rgb(model.intensity_rgb()), "cutoff_angle": float(model.cutoff_angle),
+                "beam_width": float(model.beam),
+                "to_world": mi.ScalarTransform4f().look_at(origin=position.tolist(), target=(position + axis).tolist(), up=up)}
+    if kind == "directional":
+        return {"type": "directional", "direction": [-float(x) for x in model.toward_light()],
+                "irradiance": _rgb(model.irradiance_rgb())}
+    raise ValueError(f"the Mitsuba conversion has no equal of a {kind} light")
+
+
 def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
-    """Mitsuba's scene dict for `graph`: its shapes, materials, camera and path depth.
-    `light_faces` is the sign of y along which quad lights shine (-1: down)."""
+    """Mitsuba's scene dict for `graph`: its shapes, materials, lights, camera and path depth.
+    `light_faces` is the sign of y along which two-sided quad lights shine (-1: down); one-sided
+    ones shine along their own normal."""
     import mitsuba as mi
 
     background = getattr(graph, "background", None)
@@ -183,10 +228,13 @@ def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
         raise ValueError(f"the Mitsuba conversion takes only a black background, not {background!r}")
     objects = {}
     for k, member in enumerate(graph.root.members):
-        slot, value = bsdf(member.material.model)
-        entry = shape(member.model, member.transform, slot, light_faces)
+        material = member.material.model
+        slot, value = bsdf(material)
+        entry = shape(member.model, member.transform, slot, None if one_sided(material) else light_faces)
         entry[slot] = value
         objects[f"s{k}"] = entry
+    for k, light in enumerate(getattr(graph, "lights", None) or ()):
+        objects[f"l{k}"] = emitter(getattr(light, "model", light))
     cam, image = graph.camera, graph.image
     if cam.defocus_angle or cam.aperture:
         raise ValueError("the Mitsuba conversion has no defocus")

@@ -54,7 +54,10 @@ tree (its share exactly 1), the cdf is not searched at all. A kernel compiled wi
 `light_tree` path never reads the tree's tables: `light_f`'s cdf and pmf stay valid always.
 
 Emission is two-sided (the books' diffuse light), so the conversion to solid angle takes the
-absolute cosine at the light.
+absolute cosine at the light. A one-sided light (`sides: front`, the material interface's
+`one_sided`) emits only along its shape's normal: `sample_area_light` draws its points as a
+two-sided light's, with the same density (so `pdf_area_light` is unchanged), and refuses a point
+whose front does not face p; its power is pi A L, half a two-sided light's.
 """
 
 from __future__ import annotations
@@ -77,7 +80,7 @@ from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONA
                           SUN_LIGHT)
 from .light_bounds import area_light_bounds, point_bounds, spot_bounds
 from .light_tree import LT_LIGHT, LT_SHARE, LTREE_F, LTREE_I, LightBounds, ONE_MINUS_EPSILON, build_light_tree, tree_choose, tree_pmf
-from .materials import MAT_READS_UV, emission_source, emitting_rows
+from .materials import MAT_READS_UV, emission_source, emitting_rows, one_sided, one_sided_rows
 from .textures import texture_value
 from .numerics.cdf import pmf_and_cdf, search_cdf
 from .punctual import punctual_rows, sample_directional_light, sample_point_light, sample_spot_light
@@ -198,18 +201,19 @@ def light_tree_tables(flat) -> dict[str, np.ndarray]:
 
 
 def front_only(flat, rows: np.ndarray) -> np.ndarray:
-    """Whether each area light row of `rows` emits from its front only (its tree bound is then
-    the cone of its normal, not both sides of it). Every emitter is two-sided as in the books
-    until a material says otherwise: the one-sided area lights answer here."""
-    return np.zeros(len(rows), np.bool_)
+    """Whether each area light row of `rows` (of flat.light_i) emits from its front only (its
+    tree bound is then the cone of its normal, not both sides of it): the material's `sides: front`."""
+    prim = flat.light_i[rows, LIGHT_PRIMITIVE]
+    return one_sided_rows(flat.mat_i)[flat.prims_i[prim, PRIM_MATERIAL]]
 
 
 def map_share(flat, env_power: float, area_power: float, other_flux: float = 0.0) -> float:
     """choose: the probability that a light sample goes to the map, whose radiance integrated
     over the sphere is `env_power`, beside area lights of total power `area_power` (their world
-    area times radiance) and other lights of total flux `other_flux`. The map sends a scene of
-    bounding radius R the flux pi R^2 env_power (environment.flux), a two-sided area light
-    2 pi A L. A map that sends nothing is never sampled (0); a map alone is always (1)."""
+    area times radiance, halved for a one-sided light) and other lights of total flux
+    `other_flux`. The map sends a scene of bounding radius R the flux pi R^2 env_power
+    (environment.flux), a two-sided area light 2 pi A L, a one-sided one pi A L. A map that
+    sends nothing is never sampled (0); a map alone is always (1)."""
     if not env_power > 0.0:
         return 0.0
     if not area_power + other_flux > 0.0:
@@ -260,11 +264,18 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     light_i = LIGHT_I.array(len(prim), kind=AREA_LIGHT, instance=inst, primitive=prim, strategy=strategy, tree_leaf=-1)
     light_f = LIGHT_F.array(len(prim), area=area, edge_u=u, edge_v=v, corner=corner)
     power = _powers(flat, light_i, light_f)
+    front_only = one_sided_rows(flat.mat_i)[flat.prims_i[prim, PRIM_MATERIAL]]
+    if front_only.any():
+        # A one-sided light sends pi A L, half what a two-sided one of the same A L sends: its
+        # choice and its share beside the map are weighed by that. (Only where there is one, so
+        # the books' lights keep their cdf bit for bit.)
+        power = np.where(front_only, 0.5 * power, power)
     total = float(power.sum())
     if not total > 0.0:  # no light sends anything: nothing to sample
         return no_lights(len(flat.prims_i), len(flat.inst_i)), 0.0
-    # The flux each sends (two-sided: 2 pi A L), as the other kinds state theirs; the choice
-    # among area lights alone keeps the cdf of `power`, as it always did.
+    # The flux each sends (two-sided: 2 pi A L; one-sided: pi A L, halved above), as the other
+    # kinds state theirs; the choice among area lights alone keeps the cdf of `power`, as it
+    # always did.
     light_f[:, LIGHT_POWER] = 2.0 * math.pi * power
     light_f[:, LIGHT_PMF], light_f[:, LIGHT_CDF] = pmf_and_cdf(power, total)
     return {"light_i": light_i, "light_f": light_f, "inst_light": inst_light, "prim_light": prim_light}, total
@@ -514,7 +525,8 @@ def area_ratio(inst_f, inst, n_world):
 @target.device
 def emission(S, prim, x_tree, n_tree, x_world, time):
     """The emitted radiance of primitive `prim` at a point (its texture reads (u, v) there), as
-    its material's `emission_source` says (two-sided, so the side is not asked)."""
+    its material's `emission_source` says, from the front (sample_area_light has refused the
+    back of a one-sided light before asking)."""
     mat = S.prims_i[prim, PRIM_MATERIAL]
     kind = S.prims_i[prim, PRIM_KIND]
     # A ray down onto the point from one unit above it: every kind's (u, v) as a hit there gives it.
@@ -534,7 +546,9 @@ def luminance(c):
 def sample_area_light(S, light, pmf, p, time, u1, u2):
     """A point on area light row `light` for shading point p (world): (ok, point, unit direction
     from p, distance, solid angle density times `pmf` (the light's pmf within its group, as
-    `select_light` gave it), emitted radiance). Not ok when the light is met edge-on or at p itself."""
+    `select_light` gave it), emitted radiance). Not ok when the light is met edge-on or at p
+    itself, or when it is one-sided and the point drawn turns its back (or its edge) to p: the
+    points are drawn as on a two-sided light, so the density of those it gives is unchanged."""
     zero = (0.0, 0.0, 0.0)
     inst = S.light_i[light, LIGHT_INSTANCE]
     prim = S.light_i[light, LIGHT_PRIMITIVE]
@@ -572,6 +586,12 @@ def sample_area_light(S, light, pmf, p, time, u1, u2):
         return False, x, zero, 0.0, 0.0, zero
     dist = math.sqrt(dist2_w)
     wi = scale(to, 1.0 / dist)
+    if one_sided(S.mat_i, S.prims_i[prim, PRIM_MATERIAL]) and dot(n, wi) >= 0.0:
+        # p is behind a one-sided light (or in its plane): the point sends nothing toward p.
+        # Not ok rather than a zero radiance spares the BSDF and the shadow ray; the estimate is
+        # the same (0), and a BSDF-sampled ray that hits this back gets black from `emitted`
+        # with the very same test (the hit's side is dot(d, n) < 0 for the same normal).
+        return False, x, wi, dist, 0.0, zero
     if not cone:
         cos_l = abs(dot(n, wi))
         if cos_l <= GRAZING:

@@ -184,16 +184,23 @@ class Dielectric(SurfaceMaps):
 
 
 class DiffuseLight(StrictModel):
-    """An emitter: emits `emit` from both faces and scatters nothing.
+    """An emitter: emits `emit` from both faces (the books' light) or, with `sides: front`, only
+    from the face its shape's normal points out of (as Mitsuba's and pbrt's area lights do: a
+    quad's u x v, a triangle's (v1 - v0) x (v2 - v0), a mesh face's corners counter-clockwise
+    seen from the front, a disk's `normal`, a sphere's and a box's outside). Scatters nothing.
 
     ```yaml
     type: diffuse_light
     emit: [15, 15, 15]
+    sides: front
     ```
     """
 
     type: Literal["diffuse_light"] = Field("diffuse_light", description="Selects an emissive material.")
     emit: TextureSlot = Field((1.0, 1.0, 1.0), description="Emitted radiance (may exceed 1): a colour or a texture.")
+    sides: Literal["both", "front"] = Field(
+        "both", description="Which faces emit: `both` (the books') or `front`, the face the shape's normal points out "
+                            "of (a quad's u x v, a sphere's outside); the back of a `front` light is black.")
     temperature: Optional[Kelvin] = Field(
         None, description=f"Colour temperature in kelvin ({MIN_KELVIN:g} to {MAX_KELVIN:g}): the light has a black body's "
         "colour (2700 a warm bulb, 6500 about white), and `emit` is then grey, [L, L, L], L the luminance of that colour.")

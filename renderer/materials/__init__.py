@@ -7,7 +7,7 @@ integrator (`tracing/integrator.trace`) asks only these and names no material:
   parameters there (roughness, metalness, ...: up to eight slots, constants or read from
   textures), evaluated once and handed to the functions below;
 - `emits` / `emitted_at`: whether it emits, and the radiance it sends back along the ray (for
-  most kinds `emitted`, their colour);
+  most kinds `emitted`, their colour); `one_sided`: whether only its front face emits;
 - `scatters`: whether it also scatters (a path goes on from an emitter only if it does);
 - `sample_bsdf`: a scattered direction, the throughput weight f . cos / pdf, the density per
   solid angle, and whether the lobe is a delta (no density: never light-sampled);
@@ -34,11 +34,11 @@ The direction of each material is a function of its random inputs (`lambertian_d
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value,
                     metal_direction, random_unit_vector, reflect)
 from .dispatch import (MICROFACETS, emission_source, NO_PARAMETERS, is_anisotropic, NO_TANGENT, color_at, emits, emitted, emitted_at, emitting_rows, eval_bsdf, has_density, is_zero,
-                       material_at, pdf_bsdf, reads_uv, sample_bsdf, scatters)
+                       material_at, one_sided, pdf_bsdf, reads_uv, sample_bsdf, scatters)
 from .fresnel import fresnel_dielectric
 from .shading_normal import has_shading_map, same_side, shading_frame
 from .table import (CONDUCTOR, PLASTIC, PRINCIPLED, ROUGH_DIELECTRIC, THIN_DIELECTRIC, CODES, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_FUZZ, MAT_IOR,
-                    MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, phase_function)
+                    MAT_KIND, MAT_READS_UV, MAT_TEXTURE, MATERIAL_F, MATERIAL_I, METAL, material_rows, one_sided_rows, phase_function)
 
 __all__ = [
     "NO_PARAMETERS", "NO_TANGENT", "material_at", "has_density", "CONDUCTOR", "PLASTIC", "PRINCIPLED", "ROUGH_DIELECTRIC",
@@ -46,5 +46,5 @@ __all__ = [
     "MAT_READS_UV", "MAT_TEXTURE", "MATERIAL_F", "MATERIAL_I", "METAL", "color_at", "dielectric_direction", "emits", "emitted",
     "emitted_at", "emitting_rows", "eval_bsdf", "fresnel_dielectric", "is_zero", "lambertian_direction", "lambertian_value", "material_rows",
     "metal_direction", "pdf_bsdf", "phase_function", "random_unit_vector", "reads_uv", "reflect", "sample_bsdf", "scatters",
-    "has_shading_map", "same_side", "shading_frame", "MICROFACETS", "is_anisotropic", "emission_source",
+    "has_shading_map", "same_side", "shading_frame", "MICROFACETS", "is_anisotropic", "emission_source", "one_sided", "one_sided_rows",
 ]

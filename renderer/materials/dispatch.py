@@ -13,7 +13,7 @@ from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_directio
 from .families import family_eval, family_has_density, family_pdf, family_sample
 from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_EMISSION, MAT_EMISSION_STRENGTH,
                     MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE,
-                    MAT_READS_UV, MAT_TEXTURE, METAL, SLOT_ALPHA_U, SLOT_ALPHA_V)
+                    MAT_ONE_SIDED, MAT_READS_UV, MAT_TEXTURE, METAL, SLOT_ALPHA_U, SLOT_ALPHA_V)
 from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 
 # Whether any kind with parameter slots can occur: without one, `material_at` reads none.
@@ -126,8 +126,8 @@ def emitted_at(S, mat, color, u, v, p, front_face):
     """Radiance that material row `mat` (one that `emits`) sends back along a ray that hit it at
     p, (u, v), its colour there being `color` (`material_at`): for a principled material its
     emission texture there times its strength (KHR_materials_emissive_strength), from both
-    sides as the books' light, since the light category samples emitters two-sided; for the
-    others `emitted` of their colour."""
+    sides as the books' light (its row is never `one_sided`, so the light category samples it
+    two-sided too); for the others `emitted` of their colour, which asks the side."""
     if PRINCIPLED and S.mat_i[mat, MAT_KIND] == PRINCIPLED_KIND and S.mat_i[mat, MAT_EMISSION] >= 0:
         e = texture_value(S.tex_i, S.tex_f, S.texels, S.noise_perm, S.noise_vec, S.mat_i[mat, MAT_EMISSION], u, v, p)
         k = S.mat_f[mat, MAT_EMISSION_STRENGTH]
@@ -139,10 +139,22 @@ def emitted_at(S, mat, color, u, v, p, front_face):
 def emitted(mat_i, mat_f, mat, color, front_face):
     """Radiance that material row `mat` (one that `emits`) sends back along the ray that hit it.
 
-    The books' diffuse light emits its colour from both sides, so `front_face` is not read; a
-    one-sided emitter would return black for a ray that hit its back.
+    The books' diffuse light emits its colour from both sides; a one-sided one (`sides: front`,
+    column `one_sided`) only from the face its normal points out of: a ray that hit its back
+    (`front_face` False) gets black. The light category's sampler refuses the same points
+    (lights.sample_area_light), so both ways of finding a light see the same emission.
     """
+    if not front_face and one_sided(mat_i, mat):
+        return (0.0, 0.0, 0.0)
     return color
+
+
+@target.device
+def one_sided(mat_i, mat):
+    """Whether material row `mat` (one that `emits`) emits from its front face only: the face
+    the shape's normal points out of (`sides: front`). Its back is black to every ray, and the
+    light category samples no point of it from behind."""
+    return mat_i[mat, MAT_ONE_SIDED] != 0
 
 
 @target.device

@@ -47,6 +47,8 @@ MATERIAL_I = Layout("mat_i", "int32", [
     Column("correlated", 1, "microfacet kinds: 1 for the height-correlated Smith term, 0 for the separable one"),
     Column("nonlinear", 1, "plastic: 1 to account for the colour shift of internal bounces"),
     Column("thin_walled", 1, "principled: 1 for a thin sheet's transmission, 0 for refraction into a solid"),
+    Column("one_sided", 1, "diffuse light: 1 if it emits only from the front, along the shape's outward normal "
+                           "(`sides: front`), 0 for both faces (the books')"),
 ])
 MATERIAL_F = Layout("mat_f", "float64", [
     Column("fuzz", 1, "metal: radius of the sphere the mirror direction is moved within (0 = a perfect mirror)"),
@@ -63,6 +65,7 @@ MAT_KIND, MAT_TEXTURE, MAT_READS_UV = MATERIAL_I.offsets("kind", "texture", "rea
 MAT_PARAM_TEXTURE, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED = MATERIAL_I.offsets("param_texture", "param_channel", "param_squared")
 MAT_NORMAL_MAP, MAT_BUMP_MAP, MAT_EMISSION, MAT_CORRELATED, MAT_NONLINEAR, MAT_THIN_WALLED = MATERIAL_I.offsets(
     "normal_map", "bump_map", "emission", "correlated", "nonlinear", "thin_walled")
+MAT_ONE_SIDED = MATERIAL_I.offset("one_sided")
 MAT_FUZZ, MAT_IOR, MAT_PARAM, MAT_ETA, MAT_K = MATERIAL_F.offsets("fuzz", "ior", "param", "eta", "k")
 MAT_SPECULAR_COLOR, MAT_NORMAL_SCALE, MAT_BUMP_HEIGHT, MAT_EMISSION_STRENGTH = MATERIAL_F.offsets(
     "specular_color", "normal_scale", "bump_height", "emission_strength")
@@ -114,6 +117,7 @@ def material_rows(model, texture: int, texture_rows: dict | None = None) -> tupl
         emission=texture_rows.get("emission", -1) if model.type == "principled" and emits(model) else -1,
         correlated=int(getattr(model, "shadowing", "correlated") == "correlated"),
         nonlinear=int(getattr(model, "nonlinear", False)), thin_walled=int(getattr(model, "thin_walled", False)),
+        one_sided=int(getattr(model, "sides", "both") == "front"),
     )
     eta, k = model.index() if model.type == "conductor" else ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     floats = MATERIAL_F.row(
@@ -160,3 +164,11 @@ def emission_rows(mat_i: np.ndarray, mat_f: np.ndarray) -> tuple[np.ndarray, np.
     principled = (mat_i[:, MAT_KIND] == PRINCIPLED) & (mat_i[:, MAT_EMISSION] >= 0)
     rows = np.where(principled, mat_i[:, MAT_EMISSION], mat_i[:, MAT_TEXTURE])
     return rows, np.where(principled, mat_f[:, MAT_EMISSION_STRENGTH], 1.0)
+
+
+def one_sided_rows(mat_i: np.ndarray) -> np.ndarray:
+    """Which material rows emit from their front face only (`sides: front`): a light made of
+    such a row sends nothing behind it, so a light tree may bound its emission by a cone of
+    half-angle pi / 2 about its normal instead of the whole sphere, and its flux is pi A L,
+    half a two-sided light's."""
+    return mat_i[:, MAT_ONE_SIDED] != 0

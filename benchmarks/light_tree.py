@@ -29,7 +29,8 @@ measured over the same pixels, from the same renders. A bulb seen within a pixel
 no choice of light sample touches; without those pixels the figure is the lighting's.
 
 A scene is scenes/NAME.yaml, or a path ending in .yaml (relative to the repository), as
-`--scenes benchmarks/scenes/many_lights_open.yaml`.
+`--scenes benchmarks/light_tree_scenes/many_lights_open.yaml` (the night market lit by strings of
+one-sided lamps over its aisles: scenes/generate_many_lights.py --open).
 
 `--cost SPP` measures instead what each sample costs: the least time of 3 renders of SPP samples
 per pixel by each estimator, alternating, with one seed (on the Cornell box the two images are the

@@ -21,6 +21,9 @@ For each scene (scenes/NAME.yaml at `--width`, the general kernel for both):
 
 The ratio is the power cdf's error over the tree's at equal time (> 1: the tree is better).
 
+`--max-depth 2` renders every image of the study (references included) with direct light only:
+what the two light samplers differ in, without the light after a bounce that both share.
+
 `--masked` prints the same figures also over the pixels whose camera ray sees no emitter: a mask
 made once per scene, before anything is timed, from a render at max_depth 1 (the camera ray's
 first hit, no shadow ray: a pixel is masked out where any of its samples met emitted light, the
@@ -101,7 +104,8 @@ def without_reference(raw: float, ref_error: float, wall: float, seconds: float)
     return float(np.sqrt(max(raw * raw - ref_error * ref_error, 0.0)) * np.sqrt(wall / seconds))
 
 
-def equal_time(name: str, width: int, seconds: float, repeats: int, reference_spp: int, masked: bool = False) -> None:
+def equal_time(name: str, width: int, seconds: float, repeats: int, reference_spp: int, masked: bool = False,
+               max_depth: int | None = None) -> None:
     from renderer.compile import with_width
     from scenefmt.validation import load
 
@@ -113,10 +117,11 @@ def equal_time(name: str, width: int, seconds: float, repeats: int, reference_sp
     if masked:
         regions["unseen"] = unseen_emitters(graph, tree)
     start = time.time()
-    ref, ref_s, ref_cpu, _ = render(graph, tree, 1001, reference_spp)
-    ref2, _, _, _ = render(graph, tree, 1002, reference_spp)
+    ref, ref_s, ref_cpu, _ = render(graph, tree, 1001, reference_spp, max_depth=max_depth)
+    ref2, _, _, _ = render(graph, tree, 1002, reference_spp, max_depth=max_depth)
     ref_errors = {region: rel_rms(ref, ref2, where) / np.sqrt(2.0) for region, where in regions.items()}
-    print(f"{Path(name).stem}: {width}x{graph.image.pixel_height}, {lights:,} lights, tree of {len(tree.ltree_i):,} nodes; "
+    depth = f", max_depth {max_depth}" if max_depth else ""
+    print(f"{Path(name).stem}{depth}: {width}x{graph.image.pixel_height}, {lights:,} lights, tree of {len(tree.ltree_i):,} nodes; "
           f"reference {reference_spp} spp x 2 ({time.time() - start:.0f} s), its own error {ref_errors['all']:.4f}")
     if masked:
         unseen = regions["unseen"]
@@ -125,7 +130,7 @@ def equal_time(name: str, width: int, seconds: float, repeats: int, reference_sp
     errors = {(method, region): [] for method in ("power", "tree") for region in regions}
     for k in range(repeats):
         for method, flat in (("power", power), ("tree", tree)) if k % 2 == 0 else (("tree", tree), ("power", power)):
-            image, wall, cpu, spp = render(graph, flat, 7 + k, 1 << 20, seconds)
+            image, wall, cpu, spp = render(graph, flat, 7 + k, 1 << 20, seconds, max_depth=max_depth)
             figures = []
             for region, where in regions.items():
                 raw = rel_rms(image, ref, where)
@@ -214,6 +219,8 @@ def main(argv=None) -> int:
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--masked", action="store_true",
                         help="also measure over the pixels whose camera ray sees no emitter (a mask from a max_depth 1 render)")
+    parser.add_argument("--max-depth", type=int, default=None,
+                        help="render every image of the equal-time study at this depth (2: direct light only)")
     parser.add_argument("--threshold", action="store_true", help="measure where the tree starts to pay instead")
     parser.add_argument("--cost", type=int, default=0, metavar="SPP",
                         help="measure instead the time of SPP samples per pixel by each estimator (least of 3)")
@@ -226,7 +233,7 @@ def main(argv=None) -> int:
             cost(name, args.width, args.cost)
     else:
         for name in args.scenes.split(","):
-            equal_time(name, args.width, args.seconds, args.repeats, args.reference_spp, args.masked)
+            equal_time(name, args.width, args.seconds, args.repeats, args.reference_spp, args.masked, args.max_depth)
     print(f"({time.time() - began:.0f} s in all)")
     return 0
 

@@ -1,7 +1,7 @@
 """The light tree against the choice by power, at equal time, against a converged reference.
 
     python benchmarks/light_tree.py [--scenes many_lights,cornell_box] [--width 96] [--seconds 8]
-                                    [--repeats 2] [--reference-spp 1024] [--threshold]
+                                    [--repeats 2] [--reference-spp 1024] [--masked] [--threshold]
 
 For each scene (scenes/NAME.yaml at `--width`, the general kernel for both):
 
@@ -20,6 +20,20 @@ For each scene (scenes/NAME.yaml at `--width`, the general kernel for both):
   printed beside each other.
 
 The ratio is the power cdf's error over the tree's at equal time (> 1: the tree is better).
+
+`--max-depth 2` renders every image of the study (references included) with direct light only:
+what the two light samplers differ in, without the light after a bounce that both share.
+
+`--masked` prints the same figures also over the pixels whose camera ray sees no emitter: a mask
+made once per scene, before anything is timed, from a render at max_depth 1 (the camera ray's
+first hit, no shadow ray: a pixel is masked out where any of its samples met emitted light, the
+background's included). Both estimators, the reference and the reference's own error are
+measured over the same pixels, from the same renders. A bulb seen within a pixel makes noise that
+no choice of light sample touches; without those pixels the figure is the lighting's.
+
+A scene is scenes/NAME.yaml, or a path ending in .yaml (relative to the repository), as
+`--scenes benchmarks/light_tree_scenes/many_lights_open.yaml` (the night market lit by strings of
+one-sided lamps over its aisles: scenes/generate_many_lights.py --open).
 
 `--cost SPP` measures instead what each sample costs: the least time of 3 renders of SPP samples
 per pixel by each estimator, alternating, with one seed (on the Cornell box the two images are the
@@ -57,44 +71,79 @@ def flats(graph, force: bool):
     return flat, flat._replace(ltree_f=LTREE_F.array(0), ltree_i=LTREE_I.array(0))
 
 
-def render(graph, flat, seed: int, samples: int, budget: float | None = None):
+def render(graph, flat, seed: int, samples: int, budget: float | None = None, max_depth: int | None = None):
     from renderer.render import render as run
 
     cpu = time.process_time()
-    result = run(graph, flat=flat, samples=samples, seed=seed, time_budget=budget, kernel="general")
+    result = run(graph, flat=flat, samples=samples, seed=seed, time_budget=budget, max_depth=max_depth, kernel="general")
     return result.film.mean(), result.stats.seconds, time.process_time() - cpu, result.film.samples
 
 
-def rel_rms(image: np.ndarray, reference: np.ndarray) -> float:
+def rel_rms(image: np.ndarray, reference: np.ndarray, where: np.ndarray | None = None) -> float:
+    """Relative RMS difference over the image, or over the pixels `where` is True (a (h, w) mask)."""
+    if where is not None:
+        image, reference = image[where], reference[where]
     return float(np.sqrt(((image - reference) ** 2).sum() / (reference ** 2).sum()))
 
 
-def equal_time(name: str, width: int, seconds: float, repeats: int, reference_spp: int) -> None:
+def scene_path(name: str) -> Path:
+    """scenes/NAME.yaml, or NAME itself (relative to the repository) where it ends in .yaml."""
+    return ROOT / name if name.endswith(".yaml") else ROOT / "scenes" / f"{name}.yaml"
+
+
+def unseen_emitters(graph, flat, samples: int = 256) -> np.ndarray:
+    """(h, w) bool: the pixels none of whose camera rays (`samples` per pixel, at max_depth 1:
+    the first hit's emission only, no shadow ray) met emitted light or the background."""
+    image, _, _, _ = render(graph, flat, 1003, samples, max_depth=1)
+    return ~(image > 0.0).any(axis=-1)
+
+
+def without_reference(raw: float, ref_error: float, wall: float, seconds: float) -> float:
+    """An error measured against the reference, less the reference's own (errors add in squares),
+    scaled to exactly `seconds` (error falls as one over the square root of the time)."""
+    return float(np.sqrt(max(raw * raw - ref_error * ref_error, 0.0)) * np.sqrt(wall / seconds))
+
+
+def equal_time(name: str, width: int, seconds: float, repeats: int, reference_spp: int, masked: bool = False,
+               max_depth: int | None = None) -> None:
     from renderer.compile import with_width
     from scenefmt.validation import load
 
-    graph = with_width(load(ROOT / "scenes" / f"{name}.yaml").graph, width)
+    graph = with_width(load(scene_path(name)).graph, width)
     tree, power = flats(graph, force=True)
     lights = len(tree.light_i)
     render(graph, tree, 0, 1)  # the kernel compiled (or loaded) before anything is timed
+    regions = {"all": None}
+    if masked:
+        regions["unseen"] = unseen_emitters(graph, tree)
     start = time.time()
-    ref, ref_s, ref_cpu, _ = render(graph, tree, 1001, reference_spp)
-    ref2, _, _, _ = render(graph, tree, 1002, reference_spp)
-    ref_error = rel_rms(ref, ref2) / np.sqrt(2.0)
-    print(f"{name}: {width}x{graph.image.pixel_height}, {lights:,} lights, tree of {len(tree.ltree_i):,} nodes; "
-          f"reference {reference_spp} spp x 2 ({time.time() - start:.0f} s), its own error {ref_error:.4f}")
-    errors = {"power": [], "tree": []}
+    ref, ref_s, ref_cpu, _ = render(graph, tree, 1001, reference_spp, max_depth=max_depth)
+    ref2, _, _, _ = render(graph, tree, 1002, reference_spp, max_depth=max_depth)
+    ref_errors = {region: rel_rms(ref, ref2, where) / np.sqrt(2.0) for region, where in regions.items()}
+    depth = f", max_depth {max_depth}" if max_depth else ""
+    print(f"{Path(name).stem}{depth}: {width}x{graph.image.pixel_height}, {lights:,} lights, tree of {len(tree.ltree_i):,} nodes; "
+          f"reference {reference_spp} spp x 2 ({time.time() - start:.0f} s), its own error {ref_errors['all']:.4f}")
+    if masked:
+        unseen = regions["unseen"]
+        print(f"  pixels that see no emitter: {int(unseen.sum()):,} of {unseen.size:,} ({unseen.mean():.1%}); "
+              f"the reference's own error over them {ref_errors['unseen']:.4f}")
+    errors = {(method, region): [] for method in ("power", "tree") for region in regions}
     for k in range(repeats):
         for method, flat in (("power", power), ("tree", tree)) if k % 2 == 0 else (("tree", tree), ("power", power)):
-            image, wall, cpu, spp = render(graph, flat, 7 + k, 1 << 20, seconds)
-            raw = rel_rms(image, ref)
-            error = np.sqrt(max(raw * raw - ref_error * ref_error, 0.0)) * np.sqrt(wall / seconds)
-            errors[method].append(error)
-            print(f"  {method:5s} run {k}: {spp:5d} spp in {wall:5.1f} s wall, {cpu:5.1f} s CPU; "
-                  f"error {raw:.4f} raw, {error:.4f} at {seconds:g} s without the reference's")
-    tree_error, power_error = np.mean(errors["tree"]), np.mean(errors["power"])
-    print(f"  => error at equal time: power {power_error:.4f}, tree {tree_error:.4f}; "
-          f"ratio power / tree {power_error / tree_error:.2f}")
+            image, wall, cpu, spp = render(graph, flat, 7 + k, 1 << 20, seconds, max_depth=max_depth)
+            figures = []
+            for region, where in regions.items():
+                raw = rel_rms(image, ref, where)
+                error = without_reference(raw, ref_errors[region], wall, seconds)
+                errors[method, region].append(error)
+                figures.append(f"{region}: {raw:.4f} raw, {error:.4f}")
+            print(f"  {method:5s} run {k}: {spp:5d} spp in {wall:5.1f} s wall, {cpu:5.1f} s CPU; error "
+                  f"({'; '.join(figures)} at {seconds:g} s without the reference's)")
+    for region in regions:
+        tree_error, power_error = np.mean(errors["tree", region]), np.mean(errors["power", region])
+        label = "over every pixel" if region == "all" else "over the pixels that see no emitter"
+        print(f"  => error at equal time {label}: power {power_error:.4f}, tree {tree_error:.4f}; "
+              f"ratio power / tree {power_error / tree_error:.2f}")
 
 
 def cost(name: str, width: int, spp: int, repeats: int = 3) -> None:
@@ -104,7 +153,7 @@ def cost(name: str, width: int, spp: int, repeats: int = 3) -> None:
     from renderer.compile import with_width
     from scenefmt.validation import load
 
-    graph = with_width(load(ROOT / "scenes" / f"{name}.yaml").graph, width)
+    graph = with_width(load(scene_path(name)).graph, width)
     tree, power = flats(graph, force=True)
     render(graph, tree, 0, 1)
     best = {"power": (math.inf, math.inf), "tree": (math.inf, math.inf)}
@@ -168,6 +217,10 @@ def main(argv=None) -> int:
     parser.add_argument("--seconds", type=float, default=8.0)
     parser.add_argument("--repeats", type=int, default=2)
     parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--masked", action="store_true",
+                        help="also measure over the pixels whose camera ray sees no emitter (a mask from a max_depth 1 render)")
+    parser.add_argument("--max-depth", type=int, default=None,
+                        help="render every image of the equal-time study at this depth (2: direct light only)")
     parser.add_argument("--threshold", action="store_true", help="measure where the tree starts to pay instead")
     parser.add_argument("--cost", type=int, default=0, metavar="SPP",
                         help="measure instead the time of SPP samples per pixel by each estimator (least of 3)")
@@ -180,7 +233,7 @@ def main(argv=None) -> int:
             cost(name, args.width, args.cost)
     else:
         for name in args.scenes.split(","):
-            equal_time(name, args.width, args.seconds, args.repeats, args.reference_spp)
+            equal_time(name, args.width, args.seconds, args.repeats, args.reference_spp, args.masked, args.max_depth)
     print(f"({time.time() - began:.0f} s in all)")
     return 0
 

@@ -36,7 +36,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from mitsuba_materials import compare, ours, triple
+from mitsuba_materials import compare, ours, print_comparison, triple
 from mitsuba_scene import render_passes, scene_dict, set_variant
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -115,15 +115,7 @@ def main(argv=None) -> int:
         a = ours(graph, args.spp, args.seed)
         b = theirs(graph, args.mitsuba_spp, args.mitsuba_pass, args.seed)
         r = compare(a[:2], b[:2], args.block)
-        for label, run, mean, se in (("rt", a, r["mean_a"], r["se_a"]), ("mitsuba", b, r["mean_b"], r["se_b"])):
-            print(f"  {label:8} {run[2]:>6} spp {run[3]:>7.1f} s wall {run[4]:>7.1f} s CPU   mean {triple(mean)}   "
-                  f"se {triple(se)} ({triple(100 * se / np.maximum(mean, 1e-12), '.2f')} %)")
-        rel = 100 * (r["mean_a"] / np.maximum(r["mean_b"], 1e-12) - 1)
-        print(f"  rt/mitsuba - 1: {triple(rel, '+.2f')} %; z of the image means {triple(r['z_image'], '+.2f')} "
-              f"(bound {r['limit_image']:.2f}; detects {triple(100 * r['detects'], '.2f')} %)")
-        print(f"  largest |z| of {r['blocks']} block means: {r['z_blocks']:.2f} at block (row, col, channel) "
-              f"{tuple(int(x) for x in r['worst_block'])} (bound {r['limit_blocks']:.2f})  "
-              f"{verdict(r['ok'], control)}", flush=True)
+        rel = print_comparison(a, b, r, verdict(r["ok"], control))
         rows.append((name, a, b, r, rel, control))
         if r["ok"] == control:
             failed.append(name)

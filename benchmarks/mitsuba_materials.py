@@ -131,6 +131,20 @@ def compare(a, b, block: int) -> dict:
             "limit_blocks": limit_blocks, "ok": ok}
 
 
+def print_comparison(a, b, r: dict, verdict: str) -> np.ndarray:
+    """Print a case's two renders (`ours`' and `theirs`' tuples) and their comparison `r`
+    (`compare`'s) with `verdict` at the end; return rt / Mitsuba - 1 per channel, in per cent."""
+    for label, run, mean, se in (("rt", a, r["mean_a"], r["se_a"]), ("mitsuba", b, r["mean_b"], r["se_b"])):
+        print(f"  {label:8} {run[2]:>6} spp {run[3]:>7.1f} s wall {run[4]:>7.1f} s CPU   mean {triple(mean)}   "
+              f"se {triple(se)} ({triple(100 * se / np.maximum(mean, 1e-12), '.2f')} %)")
+    rel = 100 * (r["mean_a"] / np.maximum(r["mean_b"], 1e-12) - 1)
+    print(f"  rt/mitsuba - 1: {triple(rel, '+.2f')} %; z of the image means {triple(r['z_image'], '+.2f')} "
+          f"(bound {r['limit_image']:.2f}; detects {triple(100 * r['detects'], '.2f')} %)")
+    print(f"  largest |z| of {r['blocks']} block means: {r['z_blocks']:.2f} at block (row, col, channel) "
+          f"{tuple(int(x) for x in r['worst_block'])} (bound {r['limit_blocks']:.2f})  {verdict}", flush=True)
+    return rel
+
+
 def triple(x, fmt: str = ".4f") -> str:
     return " ".join(format(float(v), fmt) for v in x)
 
@@ -160,15 +174,7 @@ def main(argv=None) -> int:
         a = ours(graph, args.spp, args.seed)
         b = theirs(graph, args.mitsuba_spp, args.mitsuba_pass)
         r = compare(a[:2], b[:2], args.block)
-        for label, run, mean, se in (("rt", a, r["mean_a"], r["se_a"]), ("mitsuba", b, r["mean_b"], r["se_b"])):
-            print(f"  {label:8} {run[2]:>6} spp {run[3]:>7.1f} s wall {run[4]:>7.1f} s CPU   mean {triple(mean)}   "
-                  f"se {triple(se)} ({triple(100 * se / np.maximum(mean, 1e-12), '.2f')} %)")
-        rel = 100 * (r["mean_a"] / np.maximum(r["mean_b"], 1e-12) - 1)
-        print(f"  rt/mitsuba - 1: {triple(rel, '+.2f')} %; z of the image means {triple(r['z_image'], '+.2f')} "
-              f"(bound {r['limit_image']:.2f}; detects {triple(100 * r['detects'], '.2f')} %)")
-        print(f"  largest |z| of {r['blocks']} block means: {r['z_blocks']:.2f} at block (row, col, channel) "
-              f"{tuple(int(x) for x in r['worst_block'])} (bound {r['limit_blocks']:.2f})  "
-              f"{'PASS' if r['ok'] else 'FAIL'}", flush=True)
+        print_comparison(a, b, r, "PASS" if r["ok"] else "FAIL")
         if not r["ok"]:
             failed.append(name)
         cache = Path(__file__).resolve().parent / ".cache"

@@ -204,7 +204,8 @@ def threshold(seconds: float) -> None:
             result = run(graph, flat=flat, samples=1 << 20, time_budget=seconds, kernel="general")
             film = result.film
             m = film.total / film.samples
-            var = np.maximum(film.total_sq / film.samples - m * m, 0.0) / (film.samples - 1) / film.samples
+            # The variance of the mean: the samples' spread (biased form) over n - 1.
+            var = np.maximum(film.total_sq / film.samples - m * m, 0.0) / (film.samples - 1)
             figures[method] = np.sqrt(var.sum() / (m * m).sum()) * np.sqrt(result.stats.seconds / seconds)
         print(f"  N = {n:3d}: error power {figures['power']:.2e}, tree {figures['tree']:.2e}, "
               f"ratio {figures['power'] / figures['tree']:.2f}")

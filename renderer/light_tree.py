@@ -255,7 +255,9 @@ def _topology(b: LightBounds):
             buckets[ax] = np.clip(((c[:, ax] - cmin[seg, ax]) * scale[seg]).astype(np.int64), 0, BUCKETS - 1)
             costs = _split_costs(seg * BUCKETS + buckets[ax], segments, b, members, pad)
             # A cut across a thin side of the box is worth less (pbrt-v4's K_r).
-            costs *= (largest / np.maximum(box[:, ax], 1e-300))[:, None]
+            # (Only where the centroids spread along ax: a flat side's cut is refused just below,
+            # and its factor would be inf, which times a cost of 0 warns of a NaN.)
+            costs *= np.where(spread, largest / np.where(spread, np.maximum(box[:, ax], 1e-300), 1.0), 1.0)[:, None]
             costs[~spread] = math.inf
             cut = np.argmin(costs, axis=1)
             low = costs[np.arange(segments), cut]

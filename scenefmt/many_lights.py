@@ -19,9 +19,9 @@ from .materials import emits
 
 # A light tree is built, and compiled in, from this many lights on: below it the power cdf is
 # chosen. Measured on floors lit by N small shaded lamps (benchmarks/light_tree.py --threshold;
-# docs/lights.md): the power cdf's error at equal time over the tree's was 0.8 and 0.64 at 2 and 4
-# lamps, 1.26 at 8 (within the measurement's noise), 1.5 to 2.2 from 16 on.
-LIGHT_TREE_THRESHOLD = 16
+# docs/lights.md), two runs: the power cdf's error at equal time over the tree's was 1.01-1.02 at
+# 2 lamps and 1.02-1.07 at 4 (a tie), 1.72-1.76 at 8, 2.0 at 16 and 2.1 to 2.5 from 32 on.
+LIGHT_TREE_THRESHOLD = 8
 # The kinds of `lights:` entries that have a place, and so go into the tree.
 PLACED_LIGHT_TYPES = ("point", "spot")
 

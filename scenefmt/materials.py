@@ -207,17 +207,28 @@ class DiffuseLight(StrictModel):
 
     @model_validator(mode="after")
     def _grey_with_temperature(self):
-        if self.temperature is not None and not (isinstance(self.emit, tuple) and self.emit[0] == self.emit[1] == self.emit[2]):
+        if self.temperature is not None and not _grey(self.emit):
             raise field_error("emit", "with a temperature, `emit` is grey, [L, L, L] with L the luminance of the "
                               "temperature's colour, not another colour or a texture")
         return self
 
     def radiance_slot(self):
         """`emit` with the temperature's colour applied: what the renderer's emission reads."""
-        if self.temperature is None:
-            return self.emit
-        tint = temperature_rgb(float(self.temperature))
-        return tuple(c * self.emit[0] for c in tint)
+        return _tinted(self.emit, self.temperature)
+
+
+def _grey(slot) -> bool:
+    """Whether a colour slot is a constant grey [L, L, L] (not a colour, not a texture)."""
+    return isinstance(slot, tuple) and slot[0] == slot[1] == slot[2]
+
+
+def _tinted(slot, kelvin):
+    """A grey radiance slot [L, L, L] with a black body's colour at `kelvin` (luminance 1) times
+    L; the slot itself where there is no temperature."""
+    if kelvin is None:
+        return slot
+    tint = temperature_rgb(float(kelvin))
+    return tuple(c * slot[0] for c in tint)
 
 
 class Isotropic(StrictModel):
@@ -347,6 +358,9 @@ class Principled(SurfaceMaps):
     clearcoat_roughness: ScalarSlot = Field(0.0, description="Perceptual roughness of the clear coat.")
     emission: TextureSlot = Field((0.0, 0.0, 0.0), description="Emitted radiance before `emission_strength`: a colour or a texture.")
     emission_strength: Number = Field(1.0, ge=0, description="Multiplies `emission` (KHR_materials_emissive_strength).")
+    emission_temperature: Optional[Kelvin] = Field(
+        None, description=f"Colour temperature of the emission in kelvin ({MIN_KELVIN:g} to {MAX_KELVIN:g}): a black body's "
+        "colour, and `emission` is then grey, [L, L, L], L the luminance of that colour.")
     thin_walled: StrictBool = Field(False, description="Transmission through a thin sheet (glTF without KHR_materials_volume: rays pass straight through, blurred by roughness) instead of refraction into a solid (false: a closed shape reads as glass).")
     shadowing: Shadowing = Field("correlated", description=SHADOWING_DESCRIPTION)
 
@@ -354,7 +368,14 @@ class Principled(SurfaceMaps):
     def _ranges(self):
         for key in ("metallic", "roughness", "specular", "transmission", "clearcoat", "clearcoat_roughness"):
             _in_range(getattr(self, key), 0.0, 1.0, key)
+        if self.emission_temperature is not None and not _grey(self.emission):
+            raise field_error("emission", "with an emission_temperature, `emission` is grey, [L, L, L] with L the "
+                              "luminance of the temperature's colour, not another colour or a texture")
         return self
+
+    def radiance_slot(self):
+        """`emission` with its colour temperature applied: what the renderer's emission reads."""
+        return _tinted(self.emission, self.emission_temperature)
 
 
 SURFACE_MAP_KEYS = tuple(SurfaceMaps.model_fields)
@@ -395,8 +416,8 @@ def texture_fields(model) -> list[tuple[str, Any, str]]:
     fields = type(model).model_fields
     for key, role in COLOUR_SLOTS.items():
         if key in fields:
-            # A diffuse light's emission with its colour temperature applied, if it has one.
-            value = model.radiance_slot() if key == "emit" and model.type == "diffuse_light" else getattr(model, key)
+            # An emission with its colour temperature applied, if it has one.
+            value = model.radiance_slot() if role == "radiance" else getattr(model, key)
             found.append((key, value, role))
     for key in MAP_SLOTS:
         if key in fields and getattr(model, key) is not None:

@@ -66,11 +66,14 @@ KernelFeatures = make_dataclass(
 
 GENERAL = KernelFeatures()
 # The general kernels, smallest first: the core one (every effect of tier 0 in the table of
-# effects) and the full one. A render with no kernel compiled for its scene starts with the
-# smallest that covers it, so a scene without the microfacet materials and maps compiles what it
-# compiled before they existed (51 s against 85 s for the full kernel, cold, on 2 cores).
+# effects), the core with the lights that are no shape and the light tree (tier 1), and the full
+# one. A render with no kernel compiled for its scene starts with the smallest that covers it, so
+# a scene without the microfacet materials and maps compiles what it compiled before they existed
+# (51 s against 85 s for the full kernel, cold, on 2 cores), and a scene lit by a spot or the sun
+# does not compile the microfacets either.
 CORE = KernelFeatures(**{flag.key: flag.tier == 0 for flag in EFFECT_FLAGS})
-GENERAL_KERNELS = (CORE, GENERAL)
+CORE_LIGHTS = KernelFeatures(**{flag.key: flag.tier <= 1 for flag in EFFECT_FLAGS})
+GENERAL_KERNELS = (CORE, CORE_LIGHTS, GENERAL)
 
 
 def features_of(graph) -> KernelFeatures:
@@ -111,11 +114,13 @@ def first_kernel(needed: KernelFeatures, choice: str = "auto") -> KernelFeatures
 
 def compile_wait(features: KernelFeatures) -> str:
     """How long the first compile of `features`' kernel makes a user wait, as the messages say it:
-    a kernel with any effect of tier 1 (the microfacet materials and maps) is the larger one
-    (measured on a fresh install, 2 cores: the core kernel 38 s, the full one 67 s)."""
-    if any(getattr(features, flag.key) for flag in EFFECT_FLAGS if flag.tier > 0):
-        return "about a minute on 2 cores"
-    return "8 to 40 seconds on 2 cores"
+    a kernel with any effect of tier 2 (the microfacet materials and maps) is the larger one.
+    Measured on a fresh install, 2 idle cores (benchmarks/compile_cost.py --each-cold, issue 33):
+    the core kernel 67 s (cornell_box), the core with the lights 66-71 s (cornell_spot, sun_sky,
+    many_lights), the full one 114-121 s (the same three before they had a kernel of their own)."""
+    if any(getattr(features, flag.key) for flag in EFFECT_FLAGS if flag.tier > 1):
+        return "about two minutes on 2 cores"
+    return "about a minute on 2 cores"
 
 
 def worth_specialising(remaining_seconds: float) -> bool:

@@ -18,8 +18,10 @@ class EffectFlag:
     name: str  # what users read
     path: str  # what the kernels compile in when it is on
     # 0: in the core general kernel, which a render with nothing compiled starts with unless its
-    # scene needs more; 1: only in the full general kernel (the microfacet materials and maps), so
-    # that a scene without them never compiles their code, not even on a fresh install.
+    # scene needs more; 1: the lights that are no shape and the light tree, added to the core in
+    # the middle general kernel; 2: only in the full general kernel (the microfacet materials and
+    # maps). So a scene never compiles the code of a tier above what it uses, not even on a fresh
+    # install.
     tier: int = 0
 
     @property
@@ -44,26 +46,30 @@ EFFECT_FLAGS = (
     EffectFlag("environment", "environment map",
                "an image background: its lookup, and with `integrator: mis` its sampling as a light"),
     EffectFlag("meshes", "triangle meshes", "the ray's sheared frame and the watertight triangle test"),
-    EffectFlag("conductors", "conductors", "GGX microfacet reflection with a measured metal's Fresnel", 1),
-    EffectFlag("rough_dielectrics", "rough and thin glass", "refraction through GGX microfacets, and thin sheets", 1),
-    EffectFlag("plastics", "plastics", "a dielectric coat over a diffuse base", 1),
-    EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes", 1),
-    EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map", 1),
-    EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture", 1),
+    EffectFlag("conductors", "conductors", "GGX microfacet reflection with a measured metal's Fresnel", 2),
+    EffectFlag("rough_dielectrics", "rough and thin glass", "refraction through GGX microfacets, and thin sheets", 2),
+    EffectFlag("plastics", "plastics", "a dielectric coat over a diffuse base", 2),
+    EffectFlag("principled", "principled materials", "glTF's metallic-roughness mix of lobes", 2),
+    EffectFlag("surface_maps", "normal and bump maps", "tangent frames and shading normals bent by a map", 2),
+    EffectFlag("parameter_textures", "textured parameters", "roughness and other numbers read from a texture", 2),
     EffectFlag("punctual", "point, spot, directional and sun lights",
                "sampling lights that are no shape: points, spots, parallel light and the sun's disc", 1),
     EffectFlag("light_tree", "many lights", "choosing among many lights by a tree of their bounds, orientations and power", 1),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)
+LIGHTS_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier <= 1)
 
 
 def flags_tag(on) -> str:
     """A short stable name of a set of flags that are on (keys): 'all', 'core' (every flag of tier
-    0), 'none', or those that are on, in the table's order, joined by '+'. It names a specialised kernel and its cache folder."""
+    0), 'core+lights' (every flag of tiers 0 and 1), 'none', or those that are on, in the table's
+    order, joined by '+'. It names a specialised kernel and its cache folder."""
     on = set(on)
     if on >= set(EFFECT_KEYS):
         return "all"
     if on == set(CORE_KEYS):
         return "core"
+    if on == set(LIGHTS_KEYS):
+        return "core+lights"
     return "+".join(key for key in EFFECT_KEYS if key in on) or "none"

@@ -222,11 +222,29 @@ def test_auto_starts_with_the_smallest_general_kernel_that_covers_the_scene(monk
     assert variants.first_kernel(books) == GENERAL
 
 
+def test_a_scene_lit_by_a_spot_or_the_sun_compiles_the_core_with_lights_not_the_microfacets(monkeypatch):
+    """Point, spot, directional and sun lights and the light tree (tier 1) come with the core in
+    the middle general kernel: such a scene compiles no microfacet code; a book scene still
+    compiles only the core; a scene with both compiles the full kernel."""
+    import renderer.variants as variants
+
+    books = replace(NONE, sky=True, media=True)
+    spot = replace(NONE, punctual=True, emitters=True)
+    many = replace(NONE, lights=True, emitters=True, light_tree=True, environment=True, punctual=True)
+    gold_spot = replace(spot, conductors=True)
+    monkeypatch.setattr(variants, "is_compiled", lambda features: False)
+    assert variants.first_kernel(books) == variants.CORE
+    assert variants.first_kernel(spot) == variants.CORE_LIGHTS == variants.first_kernel(many)
+    assert variants.CORE_LIGHTS.tag == "core+lights" and not variants.CORE_LIGHTS.conductors
+    assert variants.first_kernel(gold_spot) == GENERAL
+    assert variants.compile_wait(variants.CORE_LIGHTS) == variants.compile_wait(variants.CORE) == "about a minute on 2 cores"
+
+
 def test_the_compile_message_says_the_full_kernel_takes_longer():
     import renderer.variants as variants
 
-    assert variants.compile_wait(variants.CORE) == "8 to 40 seconds on 2 cores"
-    assert variants.compile_wait(GENERAL) == variants.compile_wait(replace(NONE, plastics=True)) == "about a minute on 2 cores"
+    assert variants.compile_wait(variants.CORE) == "about a minute on 2 cores"
+    assert variants.compile_wait(GENERAL) == variants.compile_wait(replace(NONE, plastics=True)) == "about two minutes on 2 cores"
 
 
 def test_a_long_render_switches_to_the_specialised_kernel_and_keeps_the_image(monkeypatch):

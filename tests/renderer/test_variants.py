@@ -64,9 +64,14 @@ SWITCH_ON = {
     "parameter_textures": ("materials:\n  worn: {type: conductor, roughness: {texture: [0.3, 0.4, 0.5], channel: g}}\n",
                            "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: worn}\n"),
 }
+# A light that is no shape; and enough of them (8, LIGHT_TREE_THRESHOLD) for a light tree.
+SWITCH_ON["punctual"] = ("lights:\n  - {type: point, position: [0, 3, 0], intensity: 5}\n",
+                         "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n")
+SWITCH_ON["light_tree"] = ("lights:\n" + "".join(f"  - {{type: point, position: [{x}, 3, 0], intensity: 5}}\n" for x in range(8)),
+                           "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n")
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]
-ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}}
+ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}, "light_tree": {"punctual": True}}
 
 
 def scene_text(flag=None):

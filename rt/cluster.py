@@ -394,6 +394,11 @@ class ClusterRounds:
                 raise self._failure(f"every worker left the cluster (the scheduler at {self.address}) after {self.film.samples} "
                                     f"of {plan.target} samples per pixel, and none joined within {WORKERS_SECONDS:g} s", lost=True)
         for future in ready:
+            if future.status == "lost" and self.client.status == "running":
+                # Finished, but the worker that held its result died before it was fetched: the
+                # scheduler computes it again for the future we still hold; wait for that.
+                self.finished.watch(future)
+                continue
             i, r = self.running.pop(future)
             self.busy.discard(i)
             result = self._chunk_result(future)

@@ -7,6 +7,7 @@ lights.py describes the table; this module only declares it.
 
 from __future__ import annotations
 
+from . import target
 from .columns import Column, Layout
 
 # Kinds of light (light_i.kind).
@@ -53,3 +54,10 @@ LIGHT_CDF, LIGHT_PMF, LIGHT_AREA, LIGHT_EDGE_U, LIGHT_EDGE_V, LIGHT_CORNER = LIG
     "cdf", "pmf", "area", "edge_u", "edge_v", "corner")
 LIGHT_POSITION, LIGHT_DIRECTION, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_BEAM, LIGHT_POWER = LIGHT_F.offsets(
     "position", "direction", "radiance", "size", "cos_cutoff", "cutoff", "beam", "power")
+
+
+@target.device
+def light_vector(S, light, column):
+    """The three values of light row `light`'s 3-wide `column` of light_f (a position, a
+    direction, a colour, an edge), as a tuple: every kind reads its vectors this way."""
+    return (S.light_f[light, column], S.light_f[light, column + 1], S.light_f[light, column + 2])

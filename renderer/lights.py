@@ -77,7 +77,7 @@ from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONA
                           LIGHT_BEAM, LIGHT_CDF, LIGHT_CORNER, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_EDGE_U,
                           LIGHT_EDGE_V, LIGHT_F, LIGHT_I, LIGHT_INSTANCE, LIGHT_KIND, LIGHT_PMF, LIGHT_POSITION, LIGHT_POWER,
                           LIGHT_PRIMITIVE, LIGHT_RADIANCE, LIGHT_SIZE, LIGHT_STRATEGY, LIGHT_TREE_LEAF, POINT_LIGHT, SPOT_LIGHT,
-                          SUN_LIGHT)
+                          SUN_LIGHT, light_vector)
 from .light_bounds import area_light_bounds, point_bounds, spot_bounds
 from .light_tree import LT_LIGHT, LT_SHARE, LTREE_F, LTREE_I, LightBounds, ONE_MINUS_EPSILON, build_light_tree, tree_choose, tree_pmf
 from .materials import MAT_READS_UV, emission_source, emitting_rows, one_sided, one_sided_rows
@@ -484,14 +484,12 @@ def sun_escaped(S, light, p, n_p, d, prev_pdf):
 
 @target.device
 def light_edges(S, light):
-    eu = (S.light_f[light, LIGHT_EDGE_U], S.light_f[light, LIGHT_EDGE_U + 1], S.light_f[light, LIGHT_EDGE_U + 2])
-    ev = (S.light_f[light, LIGHT_EDGE_V], S.light_f[light, LIGHT_EDGE_V + 1], S.light_f[light, LIGHT_EDGE_V + 2])
-    return eu, ev
+    return light_vector(S, light, LIGHT_EDGE_U), light_vector(S, light, LIGHT_EDGE_V)
 
 
 @target.device
 def light_corner(S, light):
-    return (S.light_f[light, LIGHT_CORNER], S.light_f[light, LIGHT_CORNER + 1], S.light_f[light, LIGHT_CORNER + 2])
+    return light_vector(S, light, LIGHT_CORNER)
 
 
 @target.device

@@ -31,7 +31,7 @@ import numpy as np
 from . import target
 from .environment import scene_radius
 from .light_table import (DIRECTIONAL_LIGHT, LIGHT_BEAM, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_F, LIGHT_I,
-                          LIGHT_POSITION, LIGHT_RADIANCE, LIGHT_SIZE, POINT_LIGHT, SPOT_LIGHT)
+                          LIGHT_POSITION, LIGHT_RADIANCE, LIGHT_SIZE, POINT_LIGHT, SPOT_LIGHT, light_vector)
 from .numerics.vec import dot, scale, sub
 from .shapes.spheres import cone_from, sample_cone
 
@@ -71,11 +71,6 @@ def punctual_rows(graph, flat) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --- the kernels ------------------------------------------------------------------------------
-
-
-@target.device
-def light_vector(S, light, column):
-    return (S.light_f[light, column], S.light_f[light, column + 1], S.light_f[light, column + 2])
 
 
 @target.device

@@ -26,7 +26,7 @@ import numpy as np
 
 from . import target
 from .environment import scene_radius
-from .light_table import LIGHT_DIRECTION, LIGHT_F, LIGHT_I, LIGHT_RADIANCE, LIGHT_SIZE, SUN_LIGHT
+from .light_table import LIGHT_DIRECTION, LIGHT_F, LIGHT_I, LIGHT_RADIANCE, LIGHT_SIZE, SUN_LIGHT, light_vector
 from .numerics.vec import dot, unit
 from .shapes.spheres import frame_of
 from .sky import MODEL_TO_UNITS, REAL_RADIUS, cap_irradiance, disc_radiance
@@ -73,16 +73,6 @@ def sun_rows(graph, flat) -> tuple[np.ndarray, np.ndarray]:
 
 
 @target.device
-def sun_axis(S, light):
-    return (S.light_f[light, LIGHT_DIRECTION], S.light_f[light, LIGHT_DIRECTION + 1], S.light_f[light, LIGHT_DIRECTION + 2])
-
-
-@target.device
-def sun_radiance(S, light):
-    return (S.light_f[light, LIGHT_RADIANCE], S.light_f[light, LIGHT_RADIANCE + 1], S.light_f[light, LIGHT_RADIANCE + 2])
-
-
-@target.device
 def sample_sun_cone(axis, cos_radius, u1, u2):
     """A direction uniform in the cone of half-angle acos(cos_radius) about unit `axis`, and the
     cone's solid angle density."""
@@ -112,14 +102,14 @@ def sample_sun_light(S, light, pmf, p, time, u1, u2):
     """A direction to sun row `light`'s disc, uniform in the cone it subtends: (ok, the direction
     (a light at infinity), the same unit direction, inf, its solid angle density times `pmf`,
     the disc's radiance). Not a delta: BSDF-sampled rays meet the disc too."""
-    wi, pdf = sample_sun_cone(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], u1, u2)
-    return True, wi, wi, math.inf, pdf * pmf, sun_radiance(S, light)
+    wi, pdf = sample_sun_cone(light_vector(S, light, LIGHT_DIRECTION), S.light_f[light, LIGHT_SIZE], u1, u2)
+    return True, wi, wi, math.inf, pdf * pmf, light_vector(S, light, LIGHT_RADIANCE)
 
 
 @target.device
 def pdf_sun_light(S, light, pmf, p, x, n, time):
     """The density `sample_sun_light` gives the unit direction x, times `pmf`: 0 outside the disc."""
-    return sun_cone_pdf(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], x) * pmf
+    return sun_cone_pdf(light_vector(S, light, LIGHT_DIRECTION), S.light_f[light, LIGHT_SIZE], x) * pmf
 
 
 @target.device
@@ -128,7 +118,7 @@ def sun_along(S, light, d):
     disc's radiance where d falls inside it, and the density `sample_sun_light` gives d without
     the choice of the light; nothing, and 0, elsewhere."""
     w = unit(d)
-    pdf = sun_cone_pdf(sun_axis(S, light), S.light_f[light, LIGHT_SIZE], w)
+    pdf = sun_cone_pdf(light_vector(S, light, LIGHT_DIRECTION), S.light_f[light, LIGHT_SIZE], w)
     if pdf > 0.0:
-        return sun_radiance(S, light), pdf
+        return light_vector(S, light, LIGHT_RADIANCE), pdf
     return (0.0, 0.0, 0.0), 0.0

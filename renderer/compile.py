@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.loading import paused_gc
 from scenefmt.shapes import sphere_values
 
-from . import background, camera, environment, lights, materials, media
+from . import background, camera, environment, guiding, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
@@ -393,6 +393,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         background=np.array(background.background_row(walk.graph), np.float64),
         **lights.no_lights(0, 0),
         **environment.no_environment(),
+        **guiding.empty_guide(),
     )
     env_tables, env_power = environment.environment_tables(flat, walk.graph)
     flat = flat._replace(**env_tables)

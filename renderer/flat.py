@@ -65,13 +65,20 @@ class FlatScene(NamedTuple):
     env_rgb: np.ndarray  # (H * W, 3) float32 linear RGB, strength applied
     env_row_f: np.ndarray  # ENV_ROW_F, one row per image row
     env_texel_f: np.ndarray  # ENV_TEXEL_F, one row per texel
+    # Path guiding (guiding.py): a spatial tree over the scene whose leaves hold distributions of
+    # incident light over directions, learned by a training render (guide_training.py); empty
+    # unless the integrator is `guided`, and empty while that training runs its first pass.
+    guide_f: np.ndarray  # guiding.GUIDE_F
+    guide_i: np.ndarray  # guiding.GUIDE_I
 
 
 # The estimators (`image.integrator` in a scene file, `--integrator` on the command line), as the
 # kernels' render passes take them (tracing/integrator.trace).
 INTEGRATOR_PATH = 0
 INTEGRATOR_MIS = 1
-INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS}
+# `mis` with the bounce at each vertex with a density drawn from a learned guide or the BSDF (guiding.py).
+INTEGRATOR_GUIDED = 2
+INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS, "guided": INTEGRATOR_GUIDED}
 
 
 class Frame(NamedTuple):

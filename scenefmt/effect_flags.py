@@ -55,6 +55,8 @@ EFFECT_FLAGS = (
     EffectFlag("punctual", "point, spot, directional and sun lights",
                "sampling lights that are no shape: points, spots, parallel light and the sun's disc", 1),
     EffectFlag("light_tree", "many lights", "choosing among many lights by a tree of their bounds, orientations and power", 1),
+    EffectFlag("guiding", "path guiding",
+               "a learned distribution of where light arrives from, mixed with the BSDF at every diffuse bounce", 2),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)

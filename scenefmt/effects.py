@@ -15,7 +15,7 @@ from .effect_flags import EFFECT_FLAGS
 from .graph import GroupNode, InstanceNode, SceneGraph, ShapeNode, SphereRunNode, TextureNode
 from .many_lights import LIGHT_TREE_THRESHOLD, count_lights, wants_light_tree
 from .materials import SCALAR_SLOTS, emits
-from .scene import ImageBackground, SkyBackground
+from .scene import LIGHT_SAMPLING_INTEGRATORS, ImageBackground, SkyBackground
 from .sky import SunSkyBackground
 
 # (key, name), from the one table of effects: the key is the kernel path's flag
@@ -152,7 +152,7 @@ def sun_sky_effects(bg: SunSkyBackground, integrator: str) -> dict[str, Effect]:
     """The effects a `sun_sky` background calls for: its sky is an environment map (even without
     a sky: the map is then black, and the sun's disc is looked up beside it), and its sun a light
     that is no shape, which rays escaping toward its disc meet whatever the integrator."""
-    how = "sampled as a light" if integrator == "mis" else "found by chance (image.integrator is path)"
+    how = "sampled as a light" if integrator in LIGHT_SAMPLING_INTEGRATORS else "found by chance (image.integrator is path)"
     found = {"environment": Effect("", True, f"background: sun_sky, its sky {how}" if bg.sky else
                                    "background: sun_sky, the sun's disc beside a black sky")}
     if bg.sun:
@@ -286,11 +286,11 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     if isinstance(graph.background, SkyBackground):
         found["sky"] = Effect("", True, "background: {type: sky}")
     if isinstance(graph.background, ImageBackground):
-        how = "sampled as a light" if graph.image.integrator == "mis" else "found by chance (image.integrator is path)"
+        how = "sampled as a light" if graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS else "found by chance (image.integrator is path)"
         found["environment"] = Effect("", True, f"background: {{type: image, file: {graph.background.file}}}, {how}")
     if isinstance(graph.background, SunSkyBackground):
         found.update(sun_sky_effects(graph.background, graph.image.integrator))
-    if emitters and graph.image.integrator == "mis":
+    if emitters and graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS:
         found["lights"] = Effect("", True, _first(emitters, lambda m: f"{format_path(m.path)} is sampled as a light"))
     elif emitters:
         found["lights"] = Effect("", False, "image.integrator is path: lights are found only by chance")
@@ -298,17 +298,20 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         count = count_lights(graph)
         if wants_light_tree(graph, count):
             found["light_tree"] = Effect("", True, f"{count.reason}; a tree chooses among them by what each may send")
-        elif count.total > 1 and graph.image.integrator == "mis":
+        elif count.total > 1 and graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS:
             found["light_tree"] = Effect("", False, f"{count.reason}; fewer than {LIGHT_TREE_THRESHOLD}: chosen by power")
     for key, members in by_material_effect.items():
         found[key] = Effect("", True, _first(members, lambda m, key=key: f"{format_path(m.path)} {MATERIAL_EFFECT_REASONS[key]}"))
     if with_meshes:
         found["meshes"] = Effect("", True, _first(with_meshes, lambda m: f"{format_path(m.path)} is a mesh"))
     punctual = [(k, light) for k, light in enumerate(graph.lights)]
-    if punctual and graph.image.integrator == "mis":
+    if punctual and graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS:
         found["punctual"] = Effect("", True, _first(punctual, lambda kl: f"lights[{kl[0]}] is a {kl[1].type} light"))
     elif punctual and "punctual" not in found:  # a sun's disc keeps the path on: escaping rays meet it
         found["punctual"] = Effect("", False, "image.integrator is path: point, spot and directional lights are never found")
+    if graph.image.integrator == "guided":
+        found["guiding"] = Effect("", True, "image.integrator is guided: a short training render learns where light "
+                                  "arrives from, and diffuse bounces follow it")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from .materials import emits
+from .scene import LIGHT_SAMPLING_INTEGRATORS
 
 # A light tree is built, and compiled in, from this many lights on: below it the power cdf is
 # chosen. Measured on floors lit by N small shaded lamps (benchmarks/light_tree.py --threshold;
@@ -100,8 +101,8 @@ def count_lights(graph) -> LightCount:
 
 def wants_light_tree(graph, count: Optional[LightCount] = None) -> bool:
     """Whether the renderer builds a light tree for `graph` and compiles its path: lights are
-    sampled (integrator mis) and there are at least LIGHT_TREE_THRESHOLD of them."""
-    if graph.image.integrator != "mis":
+    sampled (integrator mis or guided) and there are at least LIGHT_TREE_THRESHOLD of them."""
+    if graph.image.integrator not in LIGHT_SAMPLING_INTEGRATORS:
         return False
     count = count if count is not None else count_lights(graph)
     return count.total >= LIGHT_TREE_THRESHOLD

@@ -11,10 +11,32 @@ the SD-tree of Mueller, Gross and Novak (2017), built afresh from one set of rec
   axis of a cut depends on the depth alone;
 - in each spatial leaf that holds at least `min_records` records and some energy, a quadtree over
   the square of directions (guiding.py's equal-area map): a cell is cut in four while it holds
-  more than `threshold` of its leaf's energy (the sum of its weights) and is shallower than
-  `quad_depth`. A leaf with fewer records, or none with energy, gets no distribution: its
-  vertices sample their BSDF alone (`guide_leaf` gives -1), since a handful of records would
-  send half of those bounces after noise; such leaves lie where the training paths seldom went.
+  more than `threshold` of its leaf's energy (the sum of its weights), at least `cell_records`
+  records with energy, and is shallower than `quad_depth`. A leaf with fewer records, or none
+  with energy, gets no distribution: its vertices sample their BSDF alone (`guide_leaf` gives
+  -1), since a handful of records would send half of those bounces after noise; such leaves lie
+  where the training paths seldom went.
+
+The count of records a cell needs is ours, not Mueller et al.'s. They cut a cell by the energy of
+one iteration and fill the cells with the records of the next, so a cell cut around a few lucky
+records is judged by fresh ones. Built from one set of records, a cell cut on energy alone
+follows those few records down to the finest depth: a spike of almost no solid angle that takes
+their share of the guide's samples and finds nothing beside them. benchmarks/guide_records.py
+measures it on a light field with a known answer (a sphere of 1% of the directions lighting a
+floor and a wall; four training iterations of doubling counts, 2 million records in the last;
+the guided estimate's variance over uniform sampling's, 2 at worst): with max_records 8,000, cut
+on energy alone gave 1.71; at least 4, 8, 16, 32 records a cell gave 0.20, 0.13, 0.12, 0.15
+(light overhead); 0.23, 0.17, 0.15, 0.15 with the light along the map's pole, +z, where a small
+light smears along a ring of cells; and where the light reaches only a disc of the floor
+(`--spot 2`, as a caustic does), 1.36 on energy alone, 0.14, 0.14, 0.20 with 8, 16, 32. A new cell holds a quarter of its parent's
+records, so with 16 it starts from about 4: coarse, and true to what was seen; as the iterations
+send more samples where the light is, the cells there get finer.
+
+`max_records` was settled on the same field (16 records a cell, 2 million records): 1,000,
+2,000, 4,000, 8,000, 16,000 a leaf gave 0.31, 0.22, 0.17, 0.12, 0.11 (light overhead), 0.32,
+0.25, 0.18, 0.15, 0.11 (along the pole), and -, 0.27, 0.21, 0.14, 0.15 (the disc). The smooth
+field favours large leaves and the disc's edge small ones; 8,000 is best or within 12% of it
+in all three.
 
 Both trees are built a level at a time over all their nodes at once (the Python work is per
 level, not per node), so 2 million records build in about a second on one core. Memory is
@@ -36,7 +58,7 @@ from .guiding import (G_AXIS, G_CHILD, G_GUIDED, G_HI, G_LO, G_NODES, G_QCHILD, 
                       G_SPLIT, GUIDE_F_HEAD, GUIDE_I_HEAD)
 
 # A spatial node with more records than this is cut (see `build_guide`).
-MAX_RECORDS = 4000
+MAX_RECORDS = 8000
 # A spatial leaf with fewer records than this gets no distribution.
 MIN_RECORDS = 64
 # Levels of cuts of the spatial tree, at most: enough for a ground 2,000 units wide seen down to a
@@ -47,6 +69,8 @@ MAX_NODES = 1 << 16
 MAX_QUADS = 1 << 18
 # Mueller et al.'s: a cell holding more than 1% of its leaf's energy is cut in four.
 THRESHOLD = 0.01
+# A cell is cut only where at least this many records with energy fell in it (see `build_guide`).
+CELL_RECORDS = 16
 # Levels of a quadtree: its finest cell spans 4 pi / 4^12, about 7.5e-7 sr (a sun 0.53 degrees
 # across is 6.7e-5 sr).
 QUAD_DEPTH = 12
@@ -56,7 +80,8 @@ PAD = 1e-3
 
 def build_guide(positions, directions, weights, lo, hi, *, max_records: int = MAX_RECORDS,
                 min_records: int = MIN_RECORDS, max_depth: int = MAX_DEPTH, max_nodes: int = MAX_NODES,
-                threshold: float = THRESHOLD, quad_depth: int = QUAD_DEPTH, max_quads: int = MAX_QUADS) -> dict:
+                threshold: float = THRESHOLD, cell_records: int = CELL_RECORDS, quad_depth: int = QUAD_DEPTH,
+                max_quads: int = MAX_QUADS) -> dict:
     """The tables {"guide_f", "guide_i"} (guiding.py) of the guide learned from records: positions
     (N, 3) of surface vertices, unit directions (N, 3) the paths left in, weights (N,) >= 0 (the
     radiance that came back along each, over the direction's density), the scene's bounds lo, hi
@@ -73,6 +98,7 @@ def build_guide(positions, directions, weights, lo, hi, *, max_records: int = MA
     max_nodes = max(1, int(max_nodes))
     threshold = float(threshold) if math.isfinite(threshold) else THRESHOLD
     threshold = min(max(threshold, 0.0), 1.0)
+    cell_records = max(1, int(cell_records))
     quad_depth = min(max(1, int(quad_depth)), 24)
     max_quads = max(0, int(max_quads))
 
@@ -88,8 +114,8 @@ def build_guide(positions, directions, weights, lo, hi, *, max_records: int = MA
     # At least one cell per guided leaf: the cap on quadtree rows bounds the leaves with one too.
     if guided.sum() > max_quads:
         guided[np.flatnonzero(guided)[np.argsort(-count[guided], kind="stable")[max_quads:]]] = False
-    quad_root, share, quad_child = _quadtrees(directions, weights, leaf_of, guided, energy, threshold, quad_depth,
-                                              max_quads)
+    quad_root, share, quad_child = _quadtrees(directions, weights, leaf_of, guided, energy, threshold, cell_records,
+                                              quad_depth, max_quads)
     quads = len(share)
 
     gf = np.zeros((1 + nodes + quads, GUIDE_F_HEAD.width), np.float64)
@@ -219,7 +245,7 @@ def _square(directions):
     return np.minimum(x, one), np.minimum(y, one)
 
 
-def _quadtrees(directions, weights, leaf_of, guided, energy, threshold, quad_depth, max_quads):
+def _quadtrees(directions, weights, leaf_of, guided, energy, threshold, cell_records, quad_depth, max_quads):
     """The quadtrees of the guided leaves: per spatial node the root cell of its tree (-1: none),
     and per cell its quarters' shares (n, 4) and the cells that split them (n, 4; -1: a leaf
     cell). Each leaf's cells are contiguous, breadth first."""
@@ -245,20 +271,22 @@ def _quadtrees(directions, weights, leaf_of, guided, energy, threshold, quad_dep
         shift = quad_depth - 1 - depth
         quarter = ((qx >> shift) & 1) + 2 * ((qy >> shift) & 1)
         count = len(level_leaf)
-        mass = np.bincount(4 * local + quarter, weights=w, minlength=4 * count).reshape(count, 4)
+        key = 4 * local + quarter
+        mass = np.bincount(key, weights=w, minlength=4 * count).reshape(count, 4)
+        seen = np.bincount(key, minlength=4 * count)
         cell_mass = mass.sum(axis=1)
         shares.append(mass / cell_mass[:, None])
         cell_leaf.append(level_leaf)
         of_leaf = (mass / energy[level_leaf][:, None]).ravel()
-        cut = (of_leaf > threshold) if depth + 1 < quad_depth else np.zeros(4 * count, bool)
+        cut = (of_leaf > threshold) & (seen >= cell_records) if depth + 1 < quad_depth else np.zeros(4 * count, bool)
         cut = _cap(cut, of_leaf, max_quads - total)
         first = np.full(4 * count, -1, np.int64)
         first[cut] = total + np.arange(int(cut.sum()))
         children.append(first.reshape(count, 4))
         total += int(cut.sum())
-        moving = cut[4 * local + quarter]
+        moving = cut[key]
         qx, qy, w = qx[moving], qy[moving], w[moving]
-        local = first[(4 * local + quarter)[moving]] - (total - int(cut.sum()))
+        local = first[key[moving]] - (total - int(cut.sum()))
         level_leaf = np.repeat(level_leaf, 4)[cut]
         if not cut.any():
             break

@@ -36,7 +36,10 @@ kind per part, all referring to each other by absolute row:
 Directions live on the square [0, 1)^2 through the equal-area map x = (cos theta + 1) / 2,
 y = phi / 2 pi (world axes: theta from +z, phi from +x toward +y), whose Jacobian is constant:
 a density q on the square is q / 4 pi per unit solid angle. Quarter c of a cell is
-c = ix + 2 iy, where ix (iy) says the upper half in x (y).
+c = ix + 2 iy, where ix (iy) says the upper half in x (y). The map's cells are squares on the
+square but thin near its poles, +z and -z: light from a small source there spreads over a ring of
+cells, which the guide resolves less well than one elsewhere (benchmarks/guide_records.py: a
+variance 15 to 30% higher); in the books' scenes, +y is up.
 """
 
 from __future__ import annotations

@@ -48,3 +48,31 @@ def densities_at(gf, gi, points, dirs):
         if leaf >= 0:
             out[k] = pdf_guide(gf, gi, leaf, (dirs[k, 0], dirs[k, 1], dirs[k, 2]))
     return out
+
+
+@target.kernel
+def mixture_samples(gf, gi, points, us):
+    """For each point and each triple (u, u0, u1) of us (n, k, 3): a direction drawn from the
+    guide with probability 1/2 (where the point has a leaf), else uniformly over the sphere, and
+    the density of that mixture there, as a guided bounce with a uniform BSDF would draw it:
+    (directions (n, k, 3), densities (n, k))."""
+    n, k = us.shape[0], us.shape[1]
+    dirs = np.empty((n, k, 3))
+    dens = np.empty((n, k))
+    uniform = 1.0 / (4.0 * np.pi)
+    for a in range(n):
+        leaf = guide_leaf(gf, gi, (points[a, 0], points[a, 1], points[a, 2]))
+        for b in range(k):
+            if leaf >= 0 and us[a, b, 0] < 0.5:
+                d, _ = sample_guide(gf, gi, leaf, us[a, b, 1], us[a, b, 2])
+            else:
+                z = 1.0 - 2.0 * us[a, b, 1]
+                r = np.sqrt(max(0.0, 1.0 - z * z))
+                phi = 2.0 * np.pi * us[a, b, 2]
+                d = (r * np.cos(phi), r * np.sin(phi), z)
+            q = uniform
+            if leaf >= 0:
+                q = 0.5 * pdf_guide(gf, gi, leaf, d) + 0.5 * uniform
+            dirs[a, b, 0], dirs[a, b, 1], dirs[a, b, 2] = d[0], d[1], d[2]
+            dens[a, b] = q
+    return dirs, dens

@@ -76,6 +76,10 @@ CELL_RECORDS = 16
 QUAD_DEPTH = 12
 # The spatial box is padded by this share of its longest side on every side.
 PAD = 1e-3
+# Records farther from the origin than this on an axis are dropped: scene coordinates stay below
+# 1e60 (scenefmt.bounds.MAX_EXTENT, with room for transforms), and a box of any size within it
+# halves finitely.
+MAX_COORDINATE = 1e100
 
 
 def build_guide(positions, directions, weights, lo, hi, *, max_records: int = MAX_RECORDS,
@@ -145,15 +149,16 @@ def guide_summary(tables: dict) -> dict:
 
 
 def _kept(positions, directions, weights, lo, hi):
-    """The records worth learning from, directions made unit: finite, weight >= 0, a direction
-    of some length, and inside the scene's box where that box is finite (padded)."""
+    """The records worth learning from, directions made unit: finite (coordinates within
+    MAX_COORDINATE), weight >= 0, a direction of some length, and inside the scene's box where
+    that box is finite (padded)."""
     length = np.sqrt(np.einsum("ij,ij->i", directions, directions)) if len(directions) else np.zeros(0)
     with np.errstate(invalid="ignore"):
-        keep = (np.isfinite(positions).all(axis=1) & np.isfinite(directions).all(axis=1) & np.isfinite(weights)
-                & (weights >= 0.0) & (length > 0.0) & np.isfinite(length))
+        keep = ((np.abs(positions) <= MAX_COORDINATE).all(axis=1) & np.isfinite(directions).all(axis=1)
+                & np.isfinite(weights) & (weights >= 0.0) & (length > 0.0) & np.isfinite(length))
     scene_lo, scene_hi = np.asarray(lo, np.float64).reshape(3), np.asarray(hi, np.float64).reshape(3)
-    if np.isfinite(scene_lo).all() and np.isfinite(scene_hi).all() and (scene_lo <= scene_hi).all():
-        pad = PAD * float((scene_hi - scene_lo).max()) + 1e-9 * (1.0 + float(np.abs(np.r_[scene_lo, scene_hi]).max()))
+    if (np.abs(np.r_[scene_lo, scene_hi]) <= MAX_COORDINATE).all() and (scene_lo <= scene_hi).all():
+        pad = _pad(scene_lo, scene_hi)
         with np.errstate(invalid="ignore"):
             keep &= ((positions >= scene_lo - pad) & (positions <= scene_hi + pad)).all(axis=1)
     if not keep.all():
@@ -168,10 +173,20 @@ def _box(positions, lo, hi):
         box_lo, box_hi = positions.min(axis=0), positions.max(axis=0)
     else:
         box_lo, box_hi = np.asarray(lo, np.float64).reshape(3), np.asarray(hi, np.float64).reshape(3)
-        if not (np.isfinite(box_lo).all() and np.isfinite(box_hi).all() and (box_lo <= box_hi).all()):
+        if not ((np.abs(np.r_[box_lo, box_hi]) <= MAX_COORDINATE).all() and (box_lo <= box_hi).all()):
             box_lo, box_hi = np.zeros(3), np.zeros(3)
-    pad = PAD * float((box_hi - box_lo).max()) + 1e-6 * (1.0 + float(np.abs(np.r_[box_lo, box_hi]).max()))
+    pad = _pad(box_lo, box_hi)
     return box_lo - pad, box_hi + pad
+
+
+def _pad(lo, hi) -> float:
+    """How far a box is widened on every side: PAD of its longest side (of its distance from the
+    origin where it is a point, 1 for the origin itself), and a few roundings of its coordinates,
+    so that scenes of any size (scenefmt.bounds: 1e-60 to 1e60) get a box of their own scale."""
+    largest = float((hi - lo).max())
+    far = float(np.abs(np.r_[lo, hi]).max())
+    scale = largest if largest > 0.0 else (far if far > 0.0 else 1.0)
+    return PAD * scale + 4.0 * float(np.spacing(far))
 
 
 def _cap(wanted: np.ndarray, priority: np.ndarray, room: int) -> np.ndarray:

@@ -87,7 +87,7 @@ def square_masses(g, leaf, depth, bins):
 def test_samples_follow_the_density(kind):
     g = lobe_guide(kind)
     leaf = the_leaf(g)
-    s = calls.samples(g["guide_f"], g["guide_i"], leaf, np.random.default_rng(11).random((200_000, 2)))
+    s = calls.samples(g["guide_f"], g["guide_i"], leaf, np.random.default_rng(11).random((100_000, 2)))
     d, pdf, back = s[:, :3], s[:, 3], s[:, 4]
     assert np.all(np.abs(np.linalg.norm(d, axis=1) - 1.0) < 1e-12)
     assert np.all(pdf > 0.0)
@@ -104,22 +104,21 @@ def test_samples_follow_the_density(kind):
     assert p > ALPHA, (kind, p, dof)
 
 
-@pytest.mark.parametrize("kind", ["broad", "uniform"])
+@pytest.mark.parametrize("kind", ["peaked", "broad", "uniform"])
 def test_density_integrates_to_one_over_the_sphere(kind):
     """A midpoint rule in (theta, phi) with sin theta: independent of the guide's own map, so a
-    wrong Jacobian (4 pi) or axis would show; its error is that of the cells' edges that cut its
-    own cells, about 1e-4 for these lobes (a peaked lobe's few small cells make it erratic: see
-    the next test)."""
+    wrong Jacobian (4 pi) or axis would show; its error is that of the guide's cell edges that
+    cut the rule's cells, about 1e-4 for the broad lobes and 1.6e-3 for the peaked one."""
     g = lobe_guide(kind)
     leaf = the_leaf(g)
-    nt, nphi = 1000, 2000
+    nt, nphi = 500, 1000
     theta = (np.arange(nt) + 0.5) * math.pi / nt
     phi = (np.arange(nphi) + 0.5) * 2 * math.pi / nphi
     t, f = np.meshgrid(theta, phi, indexing="ij")
     d = np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], -1).reshape(-1, 3)
     pdf = calls.densities(g["guide_f"], g["guide_i"], leaf, d).reshape(nt, nphi)
     integral = (pdf * np.sin(t)).sum() * (math.pi / nt) * (2 * math.pi / nphi)
-    assert abs(integral - 1.0) < 1e-3, integral
+    assert abs(integral - 1.0) < 3e-3, integral
 
 
 @pytest.mark.parametrize("kind", ["peaked", "broad", "uniform"])
@@ -128,7 +127,7 @@ def test_density_over_uniform_directions_averages_to_one(kind):
     5 of its standard errors."""
     g = lobe_guide(kind)
     leaf = the_leaf(g)
-    values = 4 * math.pi * calls.densities(g["guide_f"], g["guide_i"], leaf, unit_sphere(np.random.default_rng(2), 1_000_000))
+    values = 4 * math.pi * calls.densities(g["guide_f"], g["guide_i"], leaf, unit_sphere(np.random.default_rng(2), 250_000))
     se = values.std(ddof=1) / math.sqrt(len(values))
     assert abs(values.mean() - 1.0) < 5 * se + 1e-12, (values.mean(), se)
 
@@ -340,3 +339,24 @@ def test_the_layouts_fit_their_tables():
     g = build_guide(p, d, w, np.zeros(3), np.array([4.0, 2.0, 1.0]), max_records=1_000)
     assert g["guide_f"].dtype == np.float64 and g["guide_i"].dtype == np.int64
     assert_consistent(g)
+
+
+@pytest.mark.parametrize("scale", [1e-40, 1.0, 1e40])
+def test_the_guide_is_the_same_at_every_scale(scale):
+    """The box follows the records' size (from 1e-60 to 1e60, as scenefmt.bounds allows): scaled
+    records give the same tree, and a point far outside them has no leaf; coordinates past
+    1e100 are dropped."""
+    p, d, w = random_records(13, 20_000)
+    lo, hi = np.zeros(3), np.array([4.0, 2.0, 1.0])
+    base = build_guide(p, d, w, lo, hi, max_records=1_000)
+    g = build_guide(p * scale, d, w, lo * scale, hi * scale, max_records=1_000)
+    assert guide_summary(g) == guide_summary(base)
+    assert np.array_equal(g["guide_i"], base["guide_i"])
+    np.testing.assert_allclose(g["guide_f"][1:] / np.where(np.arange(g["guide_f"].shape[0] - 1)[:, None] < guide_summary(g)["nodes"], scale, 1.0),
+                               base["guide_f"][1:], rtol=1e-12)
+    points = np.array([[2.0, 1.0, 0.5], [40.0, 1.0, 0.5]]) * scale
+    found = calls.leaves(g["guide_f"], g["guide_i"], points)
+    assert found[0] >= 0 and found[1] == -1
+    huge = build_guide(np.r_[p, [[1e200, 0.0, 0.0]]], np.r_[d, d[:1]], np.r_[w, 1.0], np.full(3, -np.inf), np.full(3, np.inf),
+                       max_records=1_000)
+    assert guide_summary(huge)["records"] == len(w) and np.isfinite(huge["guide_f"]).all()

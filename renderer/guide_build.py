@@ -151,7 +151,7 @@ def guide_summary(tables: dict) -> dict:
 def _kept(positions, directions, weights, lo, hi):
     """The records worth learning from, directions made unit: finite (coordinates within
     MAX_COORDINATE), weight >= 0, a direction of some length, and inside the scene's box where
-    that box is finite (padded)."""
+    that box is finite (padded); weights divided by the largest."""
     length = np.sqrt(np.einsum("ij,ij->i", directions, directions)) if len(directions) else np.zeros(0)
     with np.errstate(invalid="ignore"):
         keep = ((np.abs(positions) <= MAX_COORDINATE).all(axis=1) & np.isfinite(directions).all(axis=1)
@@ -163,6 +163,10 @@ def _kept(positions, directions, weights, lo, hi):
             keep &= ((positions >= scene_lo - pad) & (positions <= scene_hi + pad)).all(axis=1)
     if not keep.all():
         positions, directions, weights, length = positions[keep], directions[keep], weights[keep], length[keep]
+    # Only shares of energy matter: weights over the largest sum without overflow (1e308 each).
+    largest = float(weights.max()) if len(weights) else 0.0
+    if largest > 0.0:
+        weights = weights / largest
     return positions, directions / length[:, None], weights
 
 

@@ -102,3 +102,58 @@ def camera_ray(cam, i, j, key):
         into_shutter = uniform(key, DIM_TIME) * (cam[CAM_CLOSE] - cam[CAM_OPEN])
     time = cam[CAM_OPEN] + into_shutter
     return origin, (aim[0] - origin[0], aim[1] - origin[1], aim[2] - origin[2]), time
+
+
+@target.device
+def camera_importance(cam, width, height, x, key):
+    """Where point x (world) shows on the film, for light tracing (tracing/caustics.py): (ok,
+    pixel column, pixel row, the lens point the connection ends at, the factor K that turns the
+    radiance x leaves towards that point into the pixel's value).
+
+    A pixel's value is the mean over its area (1 in pixel units) and the lens of the radiance
+    along the ray through it. For one lens point l, a pixel's area maps to dA = |du| |dv| on the
+    focus plane, at distance D from the lens along the axis, and a patch of the focus plane seen at
+    angle theta from the axis spans D^2 / cos^3(theta) of it per steradian. So
+    pixel value = integral of L(x -> l) D^2 / (|du| |dv| cos^3 theta) d omega, and with
+    d omega = cos(x's normal, l - x) dA_x / |x - l|^2 (the caller's BSDF cosine and distance) the
+    factor is K = D^2 / (|du| |dv| cos^3 theta). Not ok behind the lens or off the film.
+    """
+    c = CAM_ORIGIN
+    origin = (cam[c], cam[c + 1], cam[c + 2])
+    if DEFOCUS and cam[CAM_LENS_RADIUS] > 0.0:
+        lx, ly = lens_point(key)
+        a, b = CAM_LENS_U, CAM_LENS_V
+        origin = (cam[c] + lx * cam[a] + ly * cam[b], cam[c + 1] + lx * cam[a + 1] + ly * cam[b + 1],
+                  cam[c + 2] + lx * cam[a + 2] + ly * cam[b + 2])
+    du = (cam[CAM_DU], cam[CAM_DU + 1], cam[CAM_DU + 2])
+    dv = (cam[CAM_DV], cam[CAM_DV + 1], cam[CAM_DV + 2])
+    p00 = (cam[CAM_PIXEL00], cam[CAM_PIXEL00 + 1], cam[CAM_PIXEL00 + 2])
+    # The focus plane's normal, towards the scene.
+    nx = du[1] * dv[2] - du[2] * dv[1]
+    ny = du[2] * dv[0] - du[0] * dv[2]
+    nz = du[0] * dv[1] - du[1] * dv[0]
+    nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if not nn > 0.0:
+        return False, 0, 0, origin, 0.0
+    nx, ny, nz = nx / nn, ny / nn, nz / nn
+    depth = (p00[0] - origin[0]) * nx + (p00[1] - origin[1]) * ny + (p00[2] - origin[2]) * nz
+    if depth < 0.0:
+        nx, ny, nz, depth = -nx, -ny, -nz, -depth
+    tx, ty, tz = x[0] - origin[0], x[1] - origin[1], x[2] - origin[2]
+    ahead = tx * nx + ty * ny + tz * nz
+    if not ahead > 0.0 or not depth > 0.0:
+        return False, 0, 0, origin, 0.0
+    s = depth / ahead
+    px = origin[0] + s * tx - p00[0]
+    py = origin[1] + s * ty - p00[1]
+    pz = origin[2] + s * tz - p00[2]
+    du2 = du[0] * du[0] + du[1] * du[1] + du[2] * du[2]
+    dv2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]
+    fx = (px * du[0] + py * du[1] + pz * du[2]) / du2 + 0.5
+    fy = (px * dv[0] + py * dv[1] + pz * dv[2]) / dv2 + 0.5
+    if not (0.0 <= fx < width and 0.0 <= fy < height):
+        return False, 0, 0, origin, 0.0
+    dist = math.sqrt(tx * tx + ty * ty + tz * tz)
+    cos_t = ahead / dist
+    k = depth * depth / (math.sqrt(du2 * dv2) * cos_t * cos_t * cos_t)
+    return True, int(fx), int(fy), origin, k

@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.loading import paused_gc
 from scenefmt.shapes import sphere_values
 
-from . import background, camera, environment, guiding, lights, materials, media
+from . import background, camera, caustic_targets, environment, guiding, light_emission, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
@@ -29,7 +29,7 @@ from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes,
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
 from .textures import TextureTables
-from .trees import INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I
+from .trees import INST_ROOT, INST_WORLD_FROM_OBJECT, INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I, tree_prims
 
 
 class _Tree:
@@ -394,10 +394,29 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **lights.no_lights(0, 0),
         **environment.no_environment(),
         **guiding.empty_guide(),
+        **caustic_targets.no_targets(len(prim_i) + len(mesh.prims_i)),
+        caustic_lf=light_emission.no_photon_lights(),
     )
     env_tables, env_power = environment.environment_tables(flat, walk.graph)
     flat = flat._replace(**env_tables)
-    return flat._replace(**lights.light_tables(flat, env_power, walk.graph))
+    flat = flat._replace(**lights.light_tables(flat, env_power, walk.graph))
+    if walk.graph.image.integrator == "caustics":
+        flat = flat._replace(**caustic_tables(flat, env_power))
+    return flat
+
+
+def caustic_tables(flat: FlatScene, env_power: float) -> dict:
+    """integrator caustics' tables: the specular spheres photons aim at (the books' metal and
+    glass, without a normal or bump map) and the lights that send them."""
+    from .materials.table import DIELECTRIC, MAT_KIND, METAL
+    from .shapes.spheres import SPHERE_CENTER, SPHERE_RADIUS
+
+    kinds = flat.mat_i[:, MAT_KIND]
+    specular = ((kinds == METAL) | (kinds == DIELECTRIC)) & (flat.mat_i[:, MAT_NORMAL_MAP] < 0) & (flat.mat_i[:, MAT_BUMP_MAP] < 0)
+    tables = caustic_targets.target_tables(flat, SPHERE, specular, SPHERE_RADIUS, SPHERE_CENTER, INST_ROOT,
+                                           INST_WORLD_FROM_OBJECT, tree_prims)
+    flat = flat._replace(**tables)
+    return {**tables, "caustic_lf": light_emission.photon_lights(flat, env_power)}
 
 
 def with_integrator(graph: SceneGraph, integrator: str) -> SceneGraph:

@@ -70,6 +70,12 @@ class FlatScene(NamedTuple):
     # unless the integrator is `guided`, and empty while that training runs its first pass.
     guide_f: np.ndarray  # guiding.GUIDE_F
     guide_i: np.ndarray  # guiding.GUIDE_I
+    # Light tracing of caustics (caustic_targets.py, light_emission.py): the specular spheres
+    # photons aim at, which primitives are such targets, and the lights photons leave; empty
+    # unless the integrator is `caustics`.
+    caustic_f: np.ndarray  # caustic_targets.CAUSTIC_F
+    caustic_prim: np.ndarray  # (P,) int32
+    caustic_lf: np.ndarray  # light_emission.CAUSTIC_LIGHT_F
 
 
 # The estimators (`image.integrator` in a scene file, `--integrator` on the command line), as the
@@ -78,7 +84,10 @@ INTEGRATOR_PATH = 0
 INTEGRATOR_MIS = 1
 # `mis` with the bounce at each vertex with a density drawn from a learned guide or the BSDF (guiding.py).
 INTEGRATOR_GUIDED = 2
-INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS, "guided": INTEGRATOR_GUIDED}
+# `mis` with the caustic paths a camera sees on matte surfaces traced from the lights (tracing/caustics.py).
+INTEGRATOR_CAUSTICS = 3
+INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS, "guided": INTEGRATOR_GUIDED,
+               "caustics": INTEGRATOR_CAUSTICS}
 
 
 def integrator_choices(quote: bool = False) -> str:

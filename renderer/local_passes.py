@@ -12,7 +12,7 @@ import numpy as np
 
 from .executor import KernelTime, Plan, Step
 from .film import Film
-from .flat import FlatScene
+from .flat import INTEGRATOR_CAUSTICS, FlatScene
 from .jit_cache import general_folder as kernel_cache_folder
 from .sampling import Sampling, uniform_sampling
 from .variants import KernelFeatures, compile_wait, is_compiled, kernel_set, mark_compiled
@@ -25,6 +25,8 @@ FIRST_BAND_ROWS_PER_THREAD = 2
 BAND_GROWTH = 8
 # A pass should take about this long: short enough for progress and a stop between passes.
 PASS_SECONDS = 0.25
+# integrator caustics: the most memory a pass's photon shares may take (its samples x pixels x 3 doubles).
+SPLAT_BYTES = 1 << 28
 
 
 class Bands:
@@ -129,6 +131,9 @@ class LocalPasses:
         chosen_pass = kernel_set(chosen).render_pass
         chosen_pass(self.flat, 1, 1, self.seed, 0, 0, self.depth, self.estimator, self.sampling, Film.empty(1, 1).sums,
                     self.row_rays[:1], self.row_bad[:1], 0, 1)
+        if self.estimator == INTEGRATOR_CAUSTICS:
+            # The photons' kernel too, before anything is timed (no sample asked: it only compiles or loads).
+            kernel_set(chosen).caustic_splats(self.flat, 1, 1, self.seed, 0, 0, self.depth)
         spent = time.perf_counter() - t0
         mark_compiled(chosen)
         self.render_pass = chosen_pass
@@ -169,6 +174,10 @@ class LocalPasses:
         the time left at the speed measured so far."""
         film = self.film
         n = min(self.batch, plan.target - film.samples)
+        if self.estimator == INTEGRATOR_CAUSTICS:
+            # A pass holds its photons' shares of every pixel for each of its samples: at most
+            # SPLAT_BYTES of them.
+            n = max(1, min(n, SPLAT_BYTES // (24 * self.width * self.height)))
         if plan.time_left is not None and plan.steps > 0 and film.samples > 0:
             per_sample = plan.seconds / max(1, film.samples - plan.start)
             n = max(1, min(n, int(plan.time_left() / per_sample))) if per_sample > 0 else n
@@ -180,6 +189,10 @@ class LocalPasses:
         film, height = self.film, self.height
         undo = None
         start = 0
+        splats = None
+        if self.estimator == INTEGRATOR_CAUSTICS:
+            # Every sample's photons first: they land anywhere in the image (tracing/caustics.py).
+            splats = self.kernels.caustic_splats(self.flat, self.width, height, self.seed, film.samples, n, self.depth)
         while start < height:
             if start > 0 and should_stop is not None and should_stop():
                 undo.undo()
@@ -190,7 +203,7 @@ class LocalPasses:
                 undo.keep((np.arange(start, end) * self.stride) % height)
             t0 = time.perf_counter()
             self.render_pass(self.flat, self.width, height, self.seed, film.samples, n, self.depth, self.estimator,
-                             self.sampling, film.sums, self.row_rays, self.row_bad, start, end)
+                             self.sampling, film.sums, self.row_rays, self.row_bad, start, end, splats=splats)
             self.bands.measured(end - start, n, time.perf_counter() - t0)
             start = end
         return True

@@ -230,14 +230,19 @@ class KernelSet:
         self.features = features
 
     def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
-                    row_rays, row_bad, band_start, band_stop, rec=None):
+                    row_rays, row_bad, band_start, band_stop, rec=None, splats=None):
         """tracing.integrator.render_pass of this feature set: samples added to the whole film's
         sums, for the rows band_start..band_stop of the pass's row order (it allocates the
         threads' scratch and launches the parallel kernel `render_band`); `rec`: the guide's
         training records (guide_records.py), None for a render."""
         return _kernel_module(self.features, "integrator").render_pass(S, width, height, seed, sample_start, sample_count,
                                                                        max_depth, integrator, sampling, sums, row_rays,
-                                                                       row_bad, band_start, band_stop, rec)
+                                                                       row_bad, band_start, band_stop, rec, splats)
+
+    def caustic_splats(self, S, width, height, seed, sample_start, sample_count, max_depth):
+        """tracing.caustics.caustic_splats of this feature set: each sample's photons' share of each pixel."""
+        return _kernel_module(self.features, "caustics").caustic_splats(S, width, height, seed, sample_start,
+                                                                        sample_count, max_depth)
 
     def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
                     row_rays, row_bad, rec=None):

@@ -424,6 +424,10 @@ def cluster_executor(connection: Connection, package: chunks.ScenePackage, flat,
                      max_depth: Optional[int] = None) -> ClusterRounds:
     """The executor of a render on `connection`'s cluster: workers this connection started
     load the tile kernel this process warms (Connection.local)."""
+    if frame.integrator == "caustics":
+        # Its photons land anywhere in the image, so no tile's samples are complete on their own.
+        raise ClusterError("integrator caustics renders in one process, not on a cluster (its photons land anywhere in "
+                           "the image, not in one tile): render without --cluster, or with integrator guided or mis")
     _distributed()
     return ClusterRounds.for_frame(connection.client, package, flat, frame, seed=seed, max_depth=max_depth,
                                    warm_kernel=connection.local)

@@ -513,6 +513,10 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     untrusted = estimate.warning or stats.noise_warning
     if untrusted is not None and film.samples >= 2:
         say(f"warning: {untrusted}", err=True)
+    training = stats.guide_training
+    if training is not None:
+        say(f"guide: learned from {sum(training.paths):,} training paths in {fmt_seconds(training.total_seconds)} "
+            f"(part of the rendering time), {training.guide_rows:,} rows", err=True)
     if stats.pixels_done is not None:
         say(f"adaptive sampling: {100 * stats.pixels_done:.0f}% of the pixels stopped before {film.samples} spp, "
             f"{film.counts.mean():.0f} samples per pixel on average", err=True)

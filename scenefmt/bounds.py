@@ -77,6 +77,11 @@ LIGHT_BYTES = 2_500
 # A mesh triangle at its peak while flattening: vertices, indices and per-triangle rows (about
 # 100 bytes kept, docs/meshes.md) plus the boxes, centroids and build arrays of its tree.
 MESH_TRIANGLE_BYTES = 300
+# A guided render's training (renderer/guide_training.py) at its peak: the last iteration's record
+# buffer (2^18 paths, plus a row's rounding, x 3 records x 13 doubles: 82 MB), the rows kept and the
+# guide's arrays made from them (44 MB), numpy's temporaries while the guide is built, and the guide
+# itself (renderer/guide_build.py caps its nodes); its scratch film is counted as the film is.
+GUIDE_TRAINING_BYTES = 260_000_000
 
 
 def physical_memory() -> int:
@@ -300,17 +305,18 @@ class MemoryEstimate:
     instances: int = 0
     primitives: int = 0
     lights: int = 0
+    guide: int = 0  # a guided render's training and guide
     placements: int = 0
     expanded_shapes: int = 0
     parts: dict = field(default_factory=dict)  # part -> key path of its biggest cause
 
     @property
     def total(self) -> int:
-        return self.film + self.textures + self.instances + self.primitives + self.lights
+        return self.film + self.textures + self.instances + self.primitives + self.lights + self.guide
 
     def describe(self) -> str:
         shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees"),
-                 (self.lights, "lights")]
+                 (self.lights, "lights"), (self.guide, "guide")]
         return ", ".join(f"{name} {gib(n)}" for n, name in shown if n >= 1 << 20) or "under 1 MiB"
 
 
@@ -462,6 +468,9 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     # A row per emitting primitive placed, and one per light under `lights:`.
     est.lights = (root.lights + len(graph.lights)) * LIGHT_BYTES
     est.parts["lights"] = ("lights",) if len(graph.lights) > root.lights else ("shapes",)
+    if image.integrator == "guided":
+        est.guide = GUIDE_TRAINING_BYTES + est.film
+        est.parts["guide"] = ("image", "integrator")
     return est
 
 
@@ -487,7 +496,7 @@ def memory_problems(estimate: MemoryEstimate, diagnostic: Callable[[tuple, str],
     if estimate.total <= limit:
         return []
     parts = {"film": estimate.film, "textures": estimate.textures, "instances": estimate.instances, "shapes and trees": estimate.primitives,
-             "lights": estimate.lights}
+             "lights": estimate.lights, "guide": estimate.guide}
     worst = max(parts, key=parts.get)
     return [
         diagnostic(

@@ -57,6 +57,8 @@ EFFECT_FLAGS = (
     EffectFlag("light_tree", "many lights", "choosing among many lights by a tree of their bounds, orientations and power", 1),
     EffectFlag("guiding", "path guiding",
                "a learned distribution of where light arrives from, mixed with the BSDF at every diffuse bounce", 2),
+    EffectFlag("caustics", "light-traced caustics",
+               "photons from the lights through specular spheres onto matte surfaces, joined to the camera", 2),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)

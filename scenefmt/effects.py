@@ -317,11 +317,14 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     if graph.image.integrator == "guided":
         found["guiding"] = Effect("", True, "image.integrator is guided: a short training render learns where light "
                                   "arrives from, and diffuse bounces follow it")
+    if graph.image.integrator == "caustics":
+        found["caustics"] = Effect("", True, "image.integrator is caustics: photons from the lights through glass and "
+                                   "mirror spheres onto matte surfaces, joined to the camera")
     elif (dielectrics or mirrors) and graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS and (
             emitters or graph.lights or isinstance(graph.background, (ImageBackground, SunSkyBackground))):
         specular = _first(dielectrics + mirrors, lambda m: f"{format_path(m.path)} is glass or a mirror")
-        found["guiding"] = Effect("", False, f"{specular}: light that reaches matte surfaces through it is found only "
-                                  "by chance; image.integrator guided may find it far sooner (docs/integrators.md)")
+        found["caustics"] = Effect("", False, f"{specular}: light that reaches matte surfaces through it is found only "
+                                   "by chance; image.integrator caustics traces it from the lights (docs/integrators.md)")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -38,7 +38,7 @@ MAX_INCLUDES = 256
 MAX_LIGHTS = 100_000
 # The integrators that sample lights at each vertex with a density (`mis`, and `guided`, which is mis
 # with learned bounces): what `rt validate` reports and the kernels compile for light sampling.
-LIGHT_SAMPLING_INTEGRATORS = frozenset({"mis", "guided"})
+LIGHT_SAMPLING_INTEGRATORS = frozenset({"mis", "guided", "caustics"})
 
 IncludeName = Annotated[str, Field(min_length=1, max_length=4096)]
 _INCLUDE_SCHEMA = {
@@ -169,13 +169,15 @@ class Image(StrictModel):
     samples_per_pixel: int = Field(10, strict=True, ge=1, le=MAX_SAMPLES, description="Paths traced per pixel.")
     max_depth: int = Field(10, strict=True, ge=1, le=MAX_DEPTH, description="Most bounces a path may take.")
     seed: int = Field(0, strict=True, ge=0, le=2**63 - 1, description="Seed of the random numbers; the same seed gives the same image.")
-    integrator: Literal["mis", "path", "guided"] = Field(
+    integrator: Literal["mis", "path", "guided", "caustics"] = Field(
         "mis",
         description="How light is found: mis samples points on the lights at every diffuse or medium vertex and "
         "weighs them against the path's own hits (multiple importance sampling, with Russian roulette past a few "
         "bounces); path is the books' estimator, which finds a light only by chance; guided is mis whose bounces "
         "also follow a distribution of where light arrives from, learned by a short training render first: for "
-        "light that reaches matte surfaces through glass or mirrors (caustics), which mis finds only by chance.",
+        "light that reaches matte surfaces through glass or mirrors (caustics), which mis finds only by chance; "
+        "caustics is mis with the light that reaches a matte surface the camera sees through glass or mirror spheres "
+        "traced from the lights instead (light tracing), which finds those caustics at once.",
     )
     sampler: Literal["independent", "sobol"] = Field(
         "independent",

@@ -77,6 +77,15 @@ def test_the_image_is_the_local_render_bit_for_bit(client):
     assert image.stats.kernel_seconds == 0.0  # a Client of the caller's: its workers load their own kernel
 
 
+def test_a_guided_image_is_the_local_render_bit_for_bit(client):
+    # Each worker trains the guide itself, on its one thread, from the same rows as a local render.
+    caustic = ROOT / "benchmarks" / "scenes" / "caustic_glass.yaml"
+    image = rt.render(caustic, spp=4, width=WIDTH, kernel="general", integrator="guided", cluster=client)
+    reference = rt.render(caustic, spp=4, width=WIDTH, kernel="general", integrator="guided")
+    assert reference.stats.guide_training.guide_rows > 1
+    assert same_sums(image.film, reference.film)
+
+
 def test_a_worker_killed_mid_render_changes_nothing(client):
     import threading
 

@@ -2,13 +2,14 @@
 
 import math
 
+import numpy as np
 
 from .. import target
 from ..camera import camera_ray
-from ..flat import INTEGRATOR_GUIDED, INTEGRATOR_MIS
+from ..flat import INTEGRATOR_CAUSTICS, INTEGRATOR_GUIDED, INTEGRATOR_MIS
 from ..guide_records import RECORDS_PER_PATH, add_to_records, no_records, open_record
 from ..guiding import guide_leaf, pdf_guide, sample_guide
-from ..kernel_flags import GUIDING, INSTANCES, SURFACE_MAPS
+from ..kernel_flags import CAUSTICS, GUIDING, INSTANCES, SURFACE_MAPS
 from ..lights import bsdf_weight, light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
@@ -22,6 +23,8 @@ from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_
 from .shadow import transmittance
 from .traverse import intersect_scene, traversal_scratch
 
+# The photons' shares of a render that has none (every integrator but caustics).
+NO_SPLATS = np.zeros((0, 0, 3))
 # Russian roulette starts after this many bounces: the first carry most of the light. Starting
 # after 2 rather than 3 gave 8 to 12% more efficiency (1 / (error^2 x time)) on the light-sampled
 # book scenes.
@@ -66,7 +69,14 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
     guided = GUIDING and integrator == INTEGRATOR_GUIDED
-    mis = integrator == INTEGRATOR_MIS or guided
+    caustic = CAUSTICS and integrator == INTEGRATOR_CAUSTICS
+    mis = integrator == INTEGRATOR_MIS or guided or caustic
+    # integrator caustics leaves to its photons (tracing/caustics.py) the paths whose first hit is
+    # matte (its bounce drew a lobe with a density; no map, not anisotropic) and whose every later
+    # vertex, up to the light, is purely specular and unmapped, the last one a caustic target:
+    # `chain` is 1 after such a first hit, 2 once specular vertices followed it, 0 otherwise.
+    chain = 0
+    last_target = False
     nee = mis and lights_to_sample(S)
     recording = GUIDING and rec.shape[0] > 0
     records = 0
@@ -83,6 +93,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
+            if caustic and chain == 2 and last_target and S.env_rgb.shape[0] > 0:
+                break  # the map and the sun send photons along this path: theirs
             # Weighed against the light sampler where a light at infinity could have given d too.
             bg = radiance_escaped(S, prev_p, prev_n, d, prev_pdf)
             r += tr * bg[0]
@@ -115,17 +127,19 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         color, params = material_at(S, mat, u, v, p)
         tangent = NO_TANGENT
         if emits(S.mat_i, mat):
-            e = emitted_at(S, mat, color, u, v, p, front)
-            if nee and prev_pdf > 0.0:
-                # The light sampler could have found this point too: weigh the two ways.
-                light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, prev_n, p, n, time)
-                w = bsdf_weight(prev_pdf, light)
-                e = (e[0] * w, e[1] * w, e[2] * w)
-            r += tr * e[0]
-            g += tg * e[1]
-            b += tb * e[2]
-            if recording and records > 0:
-                add_to_records(rec, rec_first, records, tr * e[0], tg * e[1], tb * e[2])
+            # Unless the path is one integrator caustics' photons take (see `chain` above).
+            if not (caustic and chain == 2 and last_target):
+                e = emitted_at(S, mat, color, u, v, p, front)
+                if nee and prev_pdf > 0.0:
+                    # The light sampler could have found this point too: weigh the two ways.
+                    light = pdf_li(S, light_of_hit(S, inst, prim), prev_p, prev_n, p, n, time)
+                    w = bsdf_weight(prev_pdf, light)
+                    e = (e[0] * w, e[1] * w, e[2] * w)
+                r += tr * e[0]
+                g += tg * e[1]
+                b += tb * e[2]
+                if recording and records > 0:
+                    add_to_records(rec, rec_first, records, tr * e[0], tg * e[1], tb * e[2])
             # The books' lights absorb what reaches them (sample_bsdf would say so: direction
             # (0, 0, 0)); ending the path here rather than asking was 3% faster on the Cornell box.
             # An emitter that also scatters (a principled surface) goes on like any other.
@@ -210,6 +224,16 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
                     if recording and records > 0:
                         add_to_records(rec, rec_first, records, tr * tint[0] * le[0] * k, tg * tint[1] * le[1] * k,
                                        tb * tint[2] * le[2] * k)
+        if caustic:
+            if bounce == 0:
+                chain = 1 if (not volume and dense and not delta and not maps and not is_zero(new_d)
+                              and not is_anisotropic(S.mat_i, mat, params)) else 0
+            elif chain > 0:
+                if volume or dense or maps:
+                    chain = 0
+                else:
+                    chain = 2
+                    last_target = S.caustic_prim[prim] == 1
         if is_zero(new_d):
             break
         tr *= att[0]
@@ -252,7 +276,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
 
 @target.device
 def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row, col,
-                      stack, tstack, rec, rec_row):
+                      stack, tstack, rec, rec_row, splats):
     """Add the samples sample_start.. of pixel (i, j) into the sums at [row, col] of `sums`
     (film.PixelSums: the film's own pixel, or a tile's); the rays cast and the samples left out
     as not finite. Each pixel's sums grow in sample order wherever they are kept, so a tile of
@@ -274,6 +298,11 @@ def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_dept
         # rec_row on for the pixel's first sample; rec is empty in a render.
         r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec,
                            rec_row + (s - sample_start) * RECORDS_PER_PATH)
+        if splats.shape[0] > 0:
+            # integrator caustics: this sample's photons' share of the pixel (tracing/caustics.py).
+            r += splats[s - sample_start, pixel, 0]
+            g += splats[s - sample_start, pixel, 1]
+            b += splats[s - sample_start, pixel, 2]
         rays += n
         sums.counts[row, col] = s + 1
         if math.isfinite(r) and math.isfinite(g) and math.isfinite(b):
@@ -304,7 +333,7 @@ def row_stride(height):
 
 
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
-                band_start, band_stop, rec=None):
+                band_start, band_stop, rec=None, splats=None):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums
     (film.PixelSums), with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS)
     and the sampler and stopping rule of `sampling` (sampling.Sampling), for the rows at
@@ -314,17 +343,20 @@ def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, i
 
     `rec`, for the guide's training only (guide_training.py): records of every path, those of
     sample s of pixel i of the band's m-th row from row ((m * width + i) * sample_count + s -
-    sample_start) * RECORDS_PER_PATH on; None in a render.
+    sample_start) * RECORDS_PER_PATH on; None in a render. `splats`, for integrator caustics:
+    (sample_count, width * height, 3), each sample's photons' share of each pixel
+    (caustics.caustic_splats), added to the pixel's sample; None otherwise.
 
     Allocates each render thread's traversal stacks and launches `render_band` on them."""
     scratch = traversal_scratch(target.thread_count())
     target.launch(render_band, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
-                  row_rays, row_bad, band_start, band_stop, scratch, no_records() if rec is None else rec)
+                  row_rays, row_bad, band_start, band_stop, scratch, no_records() if rec is None else rec,
+                  NO_SPLATS if splats is None else splats)
 
 
 @target.parallel_kernel
 def render_band(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
-                band_start, band_stop, scratch, rec):
+                band_start, band_stop, scratch, rec, splats):
     """`render_pass` on threads: thread k traverses with row k of `scratch`
     (traverse.traversal_scratch), so the parallel loop allocates nothing; `rec` is empty (a
     render records nothing for the guide)."""
@@ -340,7 +372,7 @@ def render_band(S, width, height, seed, sample_start, sample_count, max_depth, i
         for i in range(width):
             n, nbad = add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator,
                                         sampling, sums, j, i, stack, tstack, rec,
-                                        (m * width + i) * sample_count * RECORDS_PER_PATH)
+                                        (m * width + i) * sample_count * RECORDS_PER_PATH, splats)
             rays += n
             bad += nbad
         row_rays[j] += rays

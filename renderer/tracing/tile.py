@@ -30,6 +30,7 @@ def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, i
     tile_h, tile_w = sums.total.shape[0], sums.total.shape[1]
     stack = (np.empty(BVH_WIDE_STACK), np.empty((BVH_WIDE_STACK, 2), np.int64), np.empty(MEDIA_DEFERRED, np.int64))
     tstack = np.empty((BVH_STACK, 2))
+    splats = np.zeros((0, 0, 3))  # a tile takes no photons: integrator caustics renders in one process
     for k in range(tile_h):
         j = y0 + k
         rays = 0
@@ -37,7 +38,7 @@ def render_tile(S, width, x0, y0, seed, sample_start, sample_count, max_depth, i
         for t in range(tile_w):
             n, nbad = add_pixel_samples(S, x0 + t, j, width, seed, sample_start, sample_count, max_depth, integrator,
                                         sampling, sums, k, t, stack, tstack, rec,
-                                        (k * tile_w + t) * sample_count * RECORDS_PER_PATH)
+                                        (k * tile_w + t) * sample_count * RECORDS_PER_PATH, splats)
             rays += n
             bad += nbad
         row_rays[k] += rays

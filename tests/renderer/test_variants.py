@@ -70,6 +70,7 @@ SWITCH_ON["punctual"] = ("lights:\n  - {type: point, position: [0, 3, 0], intens
 SWITCH_ON["light_tree"] = ("lights:\n" + "".join(f"  - {{type: point, position: [{x}, 3, 0], intensity: 5}}\n" for x in range(8)),
                            "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n")
 SWITCH_ON["guiding"] = ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, material: white}\n")
+SWITCH_ON["caustics"] = SWITCH_ON["guiding"]
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]
 ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}, "light_tree": {"punctual": True}}
@@ -84,8 +85,8 @@ def scene_text(flag=None):
         text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: sky}")
     if flag == "environment":
         text = text.replace("{type: solid, color: [0.7, 0.8, 1.0]}", "{type: image, file: SKY}")
-    if flag == "guiding":
-        text = text.replace("max_depth: 6}", "max_depth: 6, integrator: guided}")
+    if flag in ("guiding", "caustics"):
+        text = text.replace("max_depth: 6}", f"max_depth: 6, integrator: {'guided' if flag == 'guiding' else 'caustics'}}}")
     if flag == "emitters":
         text = text.replace("max_depth: 6}", "max_depth: 6, integrator: path}")
     if head.startswith("materials:"):

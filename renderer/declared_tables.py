@@ -10,7 +10,8 @@ nothing on the render path:
 
 from __future__ import annotations
 
-from . import background, camera, environment, guiding, light_tree, lights, materials, media, textures, trees
+from . import (background, camera, caustic_targets, environment, guide_records, guiding, light_emission, light_tree, lights,
+               materials, media, textures, trees)
 from .columns import Layout, describe_all
 from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
@@ -27,7 +28,8 @@ def declared_layouts() -> list[Layout]:
         environment.ENV_ROW_F, environment.ENV_TEXEL_F,
         lights.LIGHT_I, lights.LIGHT_F, light_tree.LTREE_F, light_tree.LTREE_I,
         guiding.GUIDE_F_HEAD, guiding.GUIDE_F_NODE, guiding.GUIDE_F_QUAD,
-        guiding.GUIDE_I_HEAD, guiding.GUIDE_I_NODE, guiding.GUIDE_I_QUAD,
+        guiding.GUIDE_I_HEAD, guiding.GUIDE_I_NODE, guiding.GUIDE_I_QUAD, guide_records.GUIDE_RECORD,
+        caustic_targets.CAUSTIC_F, light_emission.CAUSTIC_LIGHT_F,
     ]
 
 

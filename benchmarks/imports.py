@@ -53,6 +53,7 @@ PACKAGES = ("scenefmt", "renderer", "rt")
 FLOOR = frozenset({
     "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
     "renderer.trees", "renderer.flat", "renderer.sampling", "renderer.film_sums", "renderer.adaptive",
+    "renderer.guiding", "renderer.guide_records",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",

@@ -14,6 +14,8 @@ executor keeps one protocol, so the loop does not know where the samples are com
   executor decides how many it adds. None: `should_stop` asked to stop during the step, and
   the film is as it was before it. An executor that cannot go on raises `ExecutorFailed`; the
   session fills in the result so far (`partial`) and lets it through.
+- `prepare(notify)` (optional): work the render needs before its first sample, counted as
+  rendering time: a guided render's training (guide_training.py); returns what it cost, or None.
 - `switch_kernel(features, notify) -> KernelTime`: from the next step on, render with the kernel
   of `features` (only asked of executors whose `can_switch_kernel` is true).
 - `close()`: stop whatever still runs (always called, after the last step or a failure).

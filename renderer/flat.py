@@ -81,6 +81,12 @@ INTEGRATOR_GUIDED = 2
 INTEGRATORS = {"path": INTEGRATOR_PATH, "mis": INTEGRATOR_MIS, "guided": INTEGRATOR_GUIDED}
 
 
+def integrator_choices(quote: bool = False) -> str:
+    """The integrators' names for an error message: "guided, mis or path"."""
+    names = [repr(n) if quote else n for n in sorted(INTEGRATORS)]
+    return ", ".join(names[:-1]) + " or " + names[-1]
+
+
 class Frame(NamedTuple):
     """The image settings a render reads from a scene."""
 

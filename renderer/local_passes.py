@@ -105,6 +105,7 @@ class LocalPasses:
         self.batch = 1  # samples in the next pass
         self.film: Optional[Film] = None
         self.render_pass = None
+        self.kernels = None
 
     @classmethod
     def for_frame(cls, flat: FlatScene, frame, *, seed: Optional[int] = None, max_depth: Optional[int] = None,
@@ -131,7 +132,24 @@ class LocalPasses:
         spent = time.perf_counter() - t0
         mark_compiled(chosen)
         self.render_pass = chosen_pass
+        self.kernels = kernel_set(chosen)
         return KernelTime(spent, spent if compiling else 0.0)
+
+    def prepare(self, notify=None):
+        """Before the first sample: a guided render's training (guide_training.train_guide), with
+        the kernel `start` loaded; the guide goes into this executor's flat scene. What the
+        training cost, or None for any other estimator."""
+        from .flat import INTEGRATOR_GUIDED
+
+        if self.estimator != INTEGRATOR_GUIDED:
+            return None
+        from .guide_training import train_guide
+
+        if notify is not None:
+            notify("learning where light comes from (the guide's training passes)")
+        self.flat, training = train_guide(self.flat, self.width, self.height, self.seed, self.depth,
+                                          self.sampling.sampler, self.kernels)
+        return training
 
     def set_sampling(self, sampling: Sampling) -> None:
         """Render the next passes with `sampling` (adaptive sampling's rule, once its pilot is in).

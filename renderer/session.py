@@ -62,6 +62,8 @@ class RenderStats:
     # None until its pilot is done, then refreshed after each step.
     forecast: Optional[object] = None
     pixels_done: Optional[float] = None  # adaptive sampling: the share of pixels stopped (None: not adaptive)
+    # A guided render's training (guide_training.GuideTraining): its paths and seconds, part of `seconds`.
+    guide_training: Optional[object] = None
 
     @property
     def rays_per_second(self) -> float:
@@ -255,6 +257,10 @@ def render_progressively(
     try:
         _add_kernel_time(stats, executor.start(film, chosen, notify))
         clock = RenderClock()
+        # Work before the first sample that is part of the render's time: a guided render's training.
+        prepare = getattr(executor, "prepare", None)
+        if prepare is not None:
+            stats.guide_training = prepare(notify)
         time_left = (lambda: time_budget - clock()) if time_budget is not None else None
         last_noise = clock.start
         trend = VarianceTrend()

@@ -230,19 +230,25 @@ class KernelSet:
         self.features = features
 
     def render_pass(self, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
-                    row_rays, row_bad, band_start, band_stop):
+                    row_rays, row_bad, band_start, band_stop, rec=None):
         """tracing.integrator.render_pass of this feature set: samples added to the whole film's
         sums, for the rows band_start..band_stop of the pass's row order (it allocates the
-        threads' scratch and launches the parallel kernel `render_band`)."""
+        threads' scratch and launches the parallel kernel `render_band`); `rec`: the guide's
+        training records (guide_records.py), None for a render."""
         return _kernel_module(self.features, "integrator").render_pass(S, width, height, seed, sample_start, sample_count,
                                                                        max_depth, integrator, sampling, sums, row_rays,
-                                                                       row_bad, band_start, band_stop)
+                                                                       row_bad, band_start, band_stop, rec)
 
     def render_tile(self, S, width, x0, y0, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
-                    row_rays, row_bad):
-        """tracing.tile.render_tile of this feature set: samples added to one tile's sums."""
+                    row_rays, row_bad, rec=None):
+        """tracing.tile.render_tile of this feature set: samples added to one tile's sums (`rec`
+        as for render_pass)."""
+        from .guide_records import no_records
+
         return target.launch(_kernel_module(self.features, "tile").render_tile, S, width, x0, y0, seed, sample_start,
-                             sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad)
+                             sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
+                             no_records() if rec is None else rec)
+
 
 
 _sets: dict[str, KernelSet] = {}

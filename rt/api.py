@@ -395,7 +395,7 @@ def render(
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
     `scene`: a file name, a `scenefmt` `Scene`, a dict of a scene's data, or `rt.load`'s result.
-    `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis" or "path"), `sampler`
+    `spp`, `width`, `seed`, `max_depth`, `integrator` ("mis", "path" or "guided"), `sampler`
     ("independent" or "sobol") override the file's values; `time` (seconds, or "30s", "2m") and `noise` (relative RMS, 0.02 = 2%) are budgets,
     with `spp` then the cap; with `noise`, `adaptive` (the default) spends samples where the
     noise is (`Image.counts` says how many each pixel took), `adaptive=False` gives every pixel
@@ -416,7 +416,7 @@ def render(
     from .rendering import limit_blas_threads
 
     limit_blas_threads()  # before numpy loads, if it has not yet
-    from renderer.flat import INTEGRATORS, Frame
+    from renderer.flat import Frame, integrator_choices
     from renderer.variants import KERNEL_CHOICES, features_of
 
     from .progress import Progress
@@ -429,7 +429,7 @@ def render(
     _check_int("threads", threads, 1, 1 << 16)
     problem = option_problem(kernel, integrator, threads)
     if problem == "integrator":
-        raise ValueError(f"integrator={integrator!r}: expected {' or '.join(map(repr, sorted(INTEGRATORS)))}")
+        raise ValueError(f"integrator={integrator!r}: expected {integrator_choices(quote=True)}")
     if problem == "kernel":
         raise ValueError(f"kernel={kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
     if problem == "threads":

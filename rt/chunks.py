@@ -144,11 +144,18 @@ class ChunkFailed(Exception):
 class _Built:
     flat: object
     kernel: object
+    height: int = 0  # the image's height in pixels, at the package's width
+    features: object = None
 
 
 _built: "OrderedDict[tuple, _Built]" = OrderedDict()
 _built_lock = threading.Lock()
 _KEEP_SCENES = 4  # scenes a worker keeps built (a batch renders one after the other)
+# A guided render's flat scene with its guide, per (scene, kernel, seed, depth, sampler): each worker
+# trains the guide itself, the same on every worker (guide_training.py), rather than the client
+# compiling the training kernel and sending the guide.
+_guided: "OrderedDict[tuple, object]" = OrderedDict()
+_guide_lock = threading.Lock()
 
 
 def warm_tile_kernel(flat, features):
@@ -191,7 +198,7 @@ def build(package: ScenePackage, features) -> _Built:
             try:
                 # Every file the client read (it checked what the scene may read) is under root, and only those.
                 loaded = load_source(Path(_rooted(root, package.main)), package.overrides, package.syntax, allow_paths=[root])
-                _graph, flat = flatten_loaded(loaded, package.width, package.integrator)
+                graph, flat = flatten_loaded(loaded, package.width, package.integrator)
             except SceneError as exc:
                 first = exc.diagnostics[0] if exc.diagnostics else exc
                 raise ChunkFailed(f"the scene does not load on a worker: {first}") from None
@@ -202,7 +209,7 @@ def build(package: ScenePackage, features) -> _Built:
         if flat_digest(flat) != package.digest:
             raise ChunkFailed("a worker built another scene than the client from the same files (different versions of "
                               "rt or its dependencies?)")
-        built = _Built(flat, warm_tile_kernel(flat, features))
+        built = _Built(flat, warm_tile_kernel(flat, features), graph.image.pixel_height, features)
         _built[cache_key] = built
         while len(_built) > _KEEP_SCENES:
             _built.popitem(last=False)
@@ -232,6 +239,23 @@ class ChunkResult:
     error: Optional[str] = None  # a sentence, when the chunk could not run
 
 
+def guided_flat(package: ScenePackage, built: _Built, chunk: "Chunk"):
+    """The worker's flat scene with the guide a guided render learns for the chunk's seed, depth
+    and sampler, trained once per worker on its calling thread (guide_training.train_guide)."""
+    from renderer.guide_training import train_guide
+    from renderer.variants import kernel_set
+
+    key = (package.key, built.features, chunk.seed, chunk.max_depth, chunk.sampling.sampler)
+    with _guide_lock:
+        if key not in _guided:
+            flat, _ = train_guide(built.flat, chunk.image_width, built.height, chunk.seed, chunk.max_depth,
+                                  chunk.sampling.sampler, kernel_set(built.features), serial=True)
+            _guided[key] = flat
+            while len(_guided) > _KEEP_SCENES:
+                _guided.popitem(last=False)
+        return _guided[key]
+
+
 def render_chunk(package: ScenePackage, features, chunk: Chunk, sums) -> ChunkResult:
     """The worker's task: continue the tile's sums `sums` (renderer.film.PixelSums, after the
     previous round) with the chunk's samples. Failures come back as `error`, a sentence, rather
@@ -239,13 +263,16 @@ def render_chunk(package: ScenePackage, features, chunk: Chunk, sums) -> ChunkRe
     try:
         from renderer.film import PixelSums
 
+        from renderer.flat import INTEGRATOR_GUIDED
+
         built = build(package, features)
+        flat = guided_flat(package, built, chunk) if chunk.integrator == INTEGRATOR_GUIDED else built.flat
         sums = PixelSums(*(np.array(array, order="C") for array in sums))  # arguments may arrive read-only
         rows = chunk.tile.height
         row_rays = np.zeros(rows, np.int64)
         row_bad = np.zeros(rows, np.int64)
         t0 = time.perf_counter()
-        built.kernel(built.flat, chunk.image_width, chunk.tile.x0, chunk.tile.y0, chunk.seed, chunk.sample_start,
+        built.kernel(flat, chunk.image_width, chunk.tile.x0, chunk.tile.y0, chunk.seed, chunk.sample_start,
                      chunk.sample_count, chunk.max_depth, chunk.integrator, chunk.sampling, sums, row_rays, row_bad)
         seconds = time.perf_counter() - t0
         return ChunkResult(sums, int(row_rays.sum()), int(row_bad.sum()), seconds)

@@ -283,7 +283,9 @@ def render(
     integrator: Optional[str] = typer.Option(
         None, "--integrator",
         help="How light is found (overrides the file): mis (light sampling with multiple importance sampling, the "
-        "default) or path (the books' estimator, which finds lights only by chance).",
+        "default), path (the books' estimator, which finds lights only by chance) or guided (mis whose bounces also "
+        "follow where light was learned to come from, after a few seconds of training: for caustics and light "
+        "through glass).",
     ),
     sampler: Optional[str] = typer.Option(
         None, "--sampler",
@@ -337,7 +339,7 @@ def watch(
     overrides: List[str] = _SET_OPTION,
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
-    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default) or path, as for rt render."),
+    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default), path or guided, as for rt render."),
     allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
@@ -346,10 +348,10 @@ def watch(
     if str(scene) == "-":
         typer.echo("error: rt watch needs a scene file to watch, not standard input", err=True)
         raise typer.Exit(2)
-    from renderer.flat import INTEGRATORS
+    from renderer.flat import INTEGRATORS, integrator_choices
 
     if integrator is not None and integrator not in INTEGRATORS:
-        typer.echo(f"error: --integrator {integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}", err=True)
+        typer.echo(f"error: --integrator {integrator!r}: expected {integrator_choices()}", err=True)
         raise typer.Exit(2)
     opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides),
                         allow_paths=tuple(allow_paths))

@@ -228,9 +228,9 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
         raise fail(f"error: --kernel {opts.kernel!r}: expected one of {', '.join(KERNEL_CHOICES)}")
     if problem == "integrator":
-        from renderer.flat import INTEGRATORS
+        from renderer.flat import integrator_choices
 
-        raise fail(f"error: --integrator {opts.integrator!r}: expected {' or '.join(sorted(INTEGRATORS))}")
+        raise fail(f"error: --integrator {opts.integrator!r}: expected {integrator_choices()}")
     if problem == "threads":
         raise fail(f"error: --threads {opts.threads}: at most {max_threads()} threads are available")
     # A dry run writes nothing, so its outputs are not checked (nor a batch's folder made).

@@ -212,6 +212,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     placed: list[tuple[Union[ShapeNode, InstanceNode], str]] = []
     emitters: list = []
     dielectrics: list = []
+    mirrors: list = []  # the books' metals: a delta lobe, like glass, that light sampling cannot see through
     with_meshes: list[ShapeNode] = []
     textures_by_kind: dict[str, list[ShapeNode]] = {}
     by_material_effect: dict[str, list] = {}  # effect key -> the members whose material calls for it
@@ -238,6 +239,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                     emitters.append(part)
                 if material.kind == "dielectric":
                     dielectrics.append(part)
+                if material.kind == "metal":
+                    mirrors.append(part)
                 for key in material_effects(material):
                     by_material_effect.setdefault(key, []).append(part)
                 for kind in texture_kinds(material, None):
@@ -258,6 +261,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 emitters.append(member)
             if member.material is not None and member.material.kind == "dielectric":
                 dielectrics.append(member)
+            if member.material is not None and member.material.kind == "metal":
+                mirrors.append(member)
             if member.material is not None:
                 for key in material_effects(member.material):
                     by_material_effect.setdefault(key, []).append(member)
@@ -312,6 +317,11 @@ def summarize(graph: SceneGraph) -> SceneSummary:
     if graph.image.integrator == "guided":
         found["guiding"] = Effect("", True, "image.integrator is guided: a short training render learns where light "
                                   "arrives from, and diffuse bounces follow it")
+    elif (dielectrics or mirrors) and graph.image.integrator in LIGHT_SAMPLING_INTEGRATORS and (
+            emitters or graph.lights or isinstance(graph.background, (ImageBackground, SunSkyBackground))):
+        specular = _first(dielectrics + mirrors, lambda m: f"{format_path(m.path)} is glass or a mirror")
+        found["guiding"] = Effect("", False, f"{specular}: light that reaches matte surfaces through it is found only "
+                                  "by chance; image.integrator guided may find it far sooner (docs/integrators.md)")
     summary.effects = [
         Effect(name, found[key].on, found[key].reason, key) if key in found else Effect(name, False, "", key)
         for key, name in EFFECTS

@@ -63,7 +63,7 @@ def test_errors_raise_scene_error_with_the_diagnostics_and_bad_options_value_err
     assert any(d.path == ("shapes", 0, "radious") for d in caught.value.diagnostics)
     with pytest.raises(rt.SceneError, match=r"<dict>:1:1: error: shapes\[0\]\.center: missing required key"):
         rt.render({"shapes": [{"type": "sphere", "radius": 1}]})
-    with pytest.raises(ValueError, match="integrator='bdpt': expected 'mis' or 'path'"):
+    with pytest.raises(ValueError, match="integrator='bdpt': expected 'guided', 'mis' or 'path'"):
         rt.render(scene_file(tmp_path), integrator="bdpt")
     with pytest.raises(ValueError, match="spp=0: expected a whole number from 1"):
         rt.render(scene_file(tmp_path), spp=0)

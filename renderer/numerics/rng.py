@@ -44,6 +44,12 @@ DIM_MEDIUM = np.uint64(1) << np.uint64(62)
 # DIM_LIGHT + b * DIMS_PER_LIGHT + 0..3.
 DIM_LIGHT = np.uint64(1) << np.uint64(60)
 DIMS_PER_LIGHT = 4
+# A guided bounce (integrator guided, guiding.py) of bounce b draws from a stream of its own too, so
+# `mis` renders bit for bit as before guiding existed: DIM_GUIDE + b * DIMS_PER_GUIDE + k, k = 0 the
+# choice between the guide and the BSDF, k = 2 and 3 the guide's direction (one Sobol pair: rng's
+# even-odd pairing; k = 1 unused).
+DIM_GUIDE = np.uint64(1) << np.uint64(59)
+DIMS_PER_GUIDE = 4
 
 
 @target.device
@@ -106,3 +112,9 @@ def light_dim(bounce, k):
     """Dimension k of bounce `bounce`'s light-sampling stream (unsigned all through: mixed with a
     signed integer Numba would round it to a float, and 2^60 + k to 2^60)."""
     return DIM_LIGHT + uint64(bounce) * uint64(DIMS_PER_LIGHT) + uint64(k)
+
+
+@target.device
+def guide_dim(bounce, k):
+    """Dimension k of bounce `bounce`'s guiding stream (unsigned all through, as light_dim)."""
+    return DIM_GUIDE + uint64(bounce) * uint64(DIMS_PER_GUIDE) + uint64(k)

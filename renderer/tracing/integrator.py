@@ -5,15 +5,17 @@ import math
 
 from .. import target
 from ..camera import camera_ray
-from ..flat import INTEGRATOR_MIS
-from ..kernel_flags import INSTANCES, SURFACE_MAPS
+from ..flat import INTEGRATOR_GUIDED, INTEGRATOR_MIS
+from ..guide_records import RECORDS_PER_PATH, add_to_records, no_records, open_record
+from ..guiding import guide_leaf, pdf_guide, sample_guide
+from ..kernel_flags import GUIDING, INSTANCES, SURFACE_MAPS
 from ..lights import bsdf_weight, light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
 from ..adaptive import pixel_converged
 from ..config import BATCHES
 from ..film_sums import add_sample
-from ..numerics.rng import bounce_dim, light_dim, sample_key, uniform
+from ..numerics.rng import bounce_dim, guide_dim, light_dim, sample_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
@@ -27,10 +29,13 @@ ROULETTE_AFTER = 2
 # A shadow ray stops this fraction short of the point on the light, so the light itself (whose
 # point is exact to a few ulps) never blocks it.
 SHADOW_MARGIN = 1e-7
+# With integrator guided, the share of bounces at a guided vertex drawn from the guide (the rest
+# from the BSDF, which keeps every direction the BSDF reaches possible, whatever the guide learned).
+GUIDE_SHARE = 0.5
 
 
 @target.device
-def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
+def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_first):
     """Radiance along one camera path, and the number of rays it cast (shadow rays included).
 
     With INTEGRATOR_PATH this is the books' estimator: a path finds a light only by chance.
@@ -46,12 +51,25 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
     every kind and samples it, `pdf_li` and `radiance_escaped` give the density it would have
     had for a path that hits a light or escapes to one at infinity (an environment map). This
     loop names no kind of any of them.
+
+    With INTEGRATOR_GUIDED (the `guiding` flag), this is `mis` whose bounce at a surface vertex
+    with a density is drawn from the learned guide (guiding.py) with probability GUIDE_SHARE, else
+    from the BSDF, and weighed by the mixture of the two densities (one-sample MIS with the
+    balance heuristic): f cos / (share pdf_guide + (1 - share) pdf_bsdf); that mixture is also the
+    density the light samples are weighed against. A delta lobe the BSDF drew (a plastic's
+    mirror) counts as before, over its chance 1 - share. Where the guide has no leaf, the vertex
+    is mis's. When `rec` has rows (a training pass, guide_records.py), the path opens a record at
+    each of its first RECORDS_PER_PATH such vertices, rows rec_first.., and adds every later
+    contribution into them.
     """
     r, g, b = 0.0, 0.0, 0.0
     tr, tg, tb = 1.0, 1.0, 1.0
     rays = 0
-    mis = integrator == INTEGRATOR_MIS
+    guided = GUIDING and integrator == INTEGRATOR_GUIDED
+    mis = integrator == INTEGRATOR_MIS or guided
     nee = mis and lights_to_sample(S)
+    recording = GUIDING and rec.shape[0] > 0
+    records = 0
     # The solid angle density with which the last vertex chose this ray's direction; 0 after
     # the camera and after a delta lobe (a mirror, glass), whose directions no light sampler can give.
     prev_pdf = 0.0
@@ -70,6 +88,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             r += tr * bg[0]
             g += tg * bg[1]
             b += tb * bg[2]
+            if recording and records > 0:
+                add_to_records(rec, rec_first, records, tr * bg[0], tg * bg[1], tb * bg[2])
             break
         mat = hit_material(S.prims_i, prim)
         # A scattering event in a medium has no surface: its point is found on the world's ray.
@@ -104,6 +124,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             r += tr * e[0]
             g += tg * e[1]
             b += tb * e[2]
+            if recording and records > 0:
+                add_to_records(rec, rec_first, records, tr * e[0], tg * e[1], tb * e[2])
             # The books' lights absorb what reaches them (sample_bsdf would say so: direction
             # (0, 0, 0)); ending the path here rather than asking was 3% faster on the Cornell box.
             # An emitter that also scatters (a principled surface) goes on like any other.
@@ -121,8 +143,34 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
             # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
             # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
             tangent, _ = world_derivatives(S, prim, inst, n_tree)
-        new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, key,
-                                          bounce_dim(bounce, 0))
+        dense = has_density(S.mat_i, mat, params)
+        # The guide's leaf at a surface vertex with a density (-1: none, the vertex is mis's).
+        leaf = guide_leaf(S.guide_f, S.guide_i, p) if guided and dense and not volume else -1
+        from_guide = leaf >= 0 and uniform(key, guide_dim(bounce, 0)) < GUIDE_SHARE
+        if from_guide:
+            new_d, _ = sample_guide(S.guide_f, S.guide_i, leaf, uniform(key, guide_dim(bounce, 2)),
+                                    uniform(key, guide_dim(bounce, 3)))
+            att = (0.0, 0.0, 0.0)
+            delta = False
+        else:
+            new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, key,
+                                              bounce_dim(bounce, 0))
+        # The density of the bounce's direction under the mixture (guided vertices, and every vertex
+        # of a training pass, which records it); -1 where the mis branch below asks it as before.
+        mixture = -1.0
+        if guided and dense and not volume and (leaf >= 0 or recording) and not is_zero(new_d):
+            if delta:
+                # The BSDF's delta lobe, drawn with 1 - share of the BSDF's chance.
+                if leaf >= 0:
+                    att = (att[0] / (1.0 - GUIDE_SHARE), att[1] / (1.0 - GUIDE_SHARE), att[2] / (1.0 - GUIDE_SHARE))
+            else:
+                wd = unit(new_d)
+                mixture = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, wd)
+                if leaf >= 0:
+                    mixture = GUIDE_SHARE * pdf_guide(S.guide_f, S.guide_i, leaf, wd) + (1.0 - GUIDE_SHARE) * mixture
+                    tint, f = eval_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_shade, tangent, front, wd)
+                    k = f / mixture if mixture > 0.0 else 0.0
+                    att = (tint[0] * k, tint[1] * k, tint[2] * k)
         if SURFACE_MAPS and maps and not is_zero(new_d) and not same_side(new_d, n_front, n_shade):
             # Reflected for the bent normal but through the surface (or the reverse): the path
             # ends after this vertex's light sample, and no light leaks through the surface.
@@ -131,7 +179,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         # cast whatever the bounce drew, even when it drew nothing (a microfacet sample lost to
         # single scattering): the light estimate is an expectation over the light's samples
         # alone, and skipping it with the bounce made rough lobes 16-30% dark.
-        if nee and bounce + 1 < max_depth and has_density(S.mat_i, mat, params):
+        if nee and bounce + 1 < max_depth and dense:
             u0 = uniform(key, light_dim(bounce, 0))
             u1, u2 = uniform(key, light_dim(bounce, 1)), uniform(key, light_dim(bounce, 2))
             # u0 chooses a light among every kind, u1 and u2 a point on it (or a direction to it).
@@ -142,6 +190,8 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                 tint, f = (0.0, 0.0, 0.0), 0.0
             if f > 0.0:
                 density = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, wi)
+                if leaf >= 0:
+                    density = GUIDE_SHARE * pdf_guide(S.guide_f, S.guide_i, leaf, wi) + (1.0 - GUIDE_SHARE) * density
                 origin = p if volume else spawn_origin(p, o, n_front, wi)
                 rays += 1
                 # A light at infinity is reached along wi; a point, by the segment to it, stopped short.
@@ -157,6 +207,9 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                     r += tr * tint[0] * le[0] * k
                     g += tg * tint[1] * le[1] * k
                     b += tb * tint[2] * le[2] * k
+                    if recording and records > 0:
+                        add_to_records(rec, rec_first, records, tr * tint[0] * le[0] * k, tg * tint[1] * le[1] * k,
+                                       tb * tint[2] * le[2] * k)
         if is_zero(new_d):
             break
         tr *= att[0]
@@ -167,7 +220,12 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
         if mis:
             # The density of the direction just sampled, asked here rather than taken from
             # sample_bsdf: kept alive across the shadow ray, that value cost 5% on the Cornell box.
-            prev_pdf = 0.0 if delta else pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, unit(new_d))
+            if delta:
+                prev_pdf = 0.0
+            elif mixture >= 0.0:
+                prev_pdf = mixture
+            else:
+                prev_pdf = pdf_bsdf(S.mat_i, S.mat_f, mat, params, d, n_shade, tangent, front, unit(new_d))
             prev_p = p
             prev_n = n_light
             if bounce >= ROULETTE_AFTER:
@@ -180,6 +238,10 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
                     tr /= q
                     tg /= q
                     tb /= q
+        if recording and records < RECORDS_PER_PATH and mixture > 0.0:
+            # After the roulette: the throughput later contributions carry.
+            open_record(rec, rec_first + records, p, unit(new_d), mixture, tr, tg, tb)
+            records += 1
         if volume:
             o = p
         else:
@@ -190,7 +252,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack):
 
 @target.device
 def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row, col,
-                      stack, tstack):
+                      stack, tstack, rec, rec_row):
     """Add the samples sample_start.. of pixel (i, j) into the sums at [row, col] of `sums`
     (film.PixelSums: the film's own pixel, or a tile's); the rays cast and the samples left out
     as not finite. Each pixel's sums grow in sample order wherever they are kept, so a tile of
@@ -208,7 +270,10 @@ def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_dept
     for s in range(sample_start, sample_start + sample_count):
         key = sample_key(seed, pixel, s, sampling.sampler)
         o, d, time = camera_ray(S.camera, i, j, key)
-        r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack)
+        # A training pass's records of this path (guide_records.py): RECORDS_PER_PATH rows from
+        # rec_row on for the pixel's first sample; rec is empty in a render.
+        r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec,
+                           rec_row + (s - sample_start) * RECORDS_PER_PATH)
         rays += n
         sums.counts[row, col] = s + 1
         if math.isfinite(r) and math.isfinite(g) and math.isfinite(b):
@@ -239,7 +304,7 @@ def row_stride(height):
 
 
 def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
-                band_start, band_stop):
+                band_start, band_stop, rec=None):
     """Add `sample_count` samples per pixel, numbered from `sample_start`, into the film sums
     (film.PixelSums), with the estimator `integrator` (flat.INTEGRATOR_PATH or INTEGRATOR_MIS)
     and the sampler and stopping rule of `sampling` (sampling.Sampling), for the rows at
@@ -247,17 +312,22 @@ def render_pass(S, width, height, seed, sample_start, sample_count, max_depth, i
     whole image. A long pass is rendered as several such bands, so that a render can stop
     between them; each pixel's sums are the same however the rows are banded.
 
+    `rec`, for the guide's training only (guide_training.py): records of every path, those of
+    sample s of pixel i of the band's m-th row from row ((m * width + i) * sample_count + s -
+    sample_start) * RECORDS_PER_PATH on; None in a render.
+
     Allocates each render thread's traversal stacks and launches `render_band` on them."""
     scratch = traversal_scratch(target.thread_count())
     target.launch(render_band, S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums,
-                  row_rays, row_bad, band_start, band_stop, scratch)
+                  row_rays, row_bad, band_start, band_stop, scratch, no_records() if rec is None else rec)
 
 
 @target.parallel_kernel
 def render_band(S, width, height, seed, sample_start, sample_count, max_depth, integrator, sampling, sums, row_rays, row_bad,
-                band_start, band_stop, scratch):
+                band_start, band_stop, scratch, rec):
     """`render_pass` on threads: thread k traverses with row k of `scratch`
-    (traverse.traversal_scratch), so the parallel loop allocates nothing."""
+    (traverse.traversal_scratch), so the parallel loop allocates nothing; `rec` is empty (a
+    render records nothing for the guide)."""
     stride = row_stride(height)
     stacks_t, stacks_i, deferred, tstacks = scratch
     for m in target.prange(band_stop - band_start):
@@ -269,7 +339,8 @@ def render_band(S, width, height, seed, sample_start, sample_count, max_depth, i
         bad = 0
         for i in range(width):
             n, nbad = add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_depth, integrator,
-                                        sampling, sums, j, i, stack, tstack)
+                                        sampling, sums, j, i, stack, tstack, rec,
+                                        (m * width + i) * sample_count * RECORDS_PER_PATH)
             rays += n
             bad += nbad
         row_rays[j] += rays

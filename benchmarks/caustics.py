@@ -129,12 +129,9 @@ def variant_reference(stem: str, settings: tuple[str, ...], graph) -> Reference:
 
 
 def training_seconds(stats) -> float:
-    """The seconds a render spent training its guide, as its stats report them (0 without one)."""
-    for name in ("training_seconds", "guide_seconds", "train_seconds"):
-        value = getattr(stats, name, None)
-        if value is not None:
-            return float(value)
-    return 0.0
+    """The seconds a render spent training its guide (RenderStats.guide_training; 0 without one)."""
+    training = getattr(stats, "guide_training", None)
+    return float(training.total_seconds) if training is not None else 0.0
 
 
 def measure_rt(scene: str, graph, integrator: str, seconds: float, truth: Reference, keep: np.ndarray,
@@ -149,9 +146,10 @@ def measure_rt(scene: str, graph, integrator: str, seconds: float, truth: Refere
     w0, c0 = time.perf_counter(), time.process_time()
     result = render(g, flat=flat, samples=1 << 40, time_budget=seconds, seed=seed, kernel=KERNEL)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    image = result.film.mean()
+    # A budget the training used up leaves no sample: no image, an infinite error and time.
+    error = true_error(result.film.mean()[keep], truth) if result.film.samples > 0 else math.inf
     return Measurement(scene, integrator, seconds, wall, cpu, training_seconds(result.stats), result.film.samples,
-                       true_error(image[keep], truth), keep)
+                       error, keep)
 
 
 def mitsuba_variant() -> str:

@@ -65,10 +65,9 @@ VARIANTS: dict[str, tuple[str, ...]] = {
     # area light is one-sided: make ours one-sided too (`sides: front`, facing down).
     "cornell_box": ("materials.light.sides=front",),
 }
-# Sample counts of a variant's reference where the scene's own (converged.SPP_BY_SCENE) would take
-# too long here: sky_spheres' 2 x 131,072 took 13 minutes on 2 idle cores. Its own error is printed
-# with every figure measured against it.
-VARIANT_SPP: dict[str, int] = {"sky_spheres": 32768}
+# Sample counts of a variant's reference where they are not the scene's own (converged.SPP_BY_SCENE).
+# The own error of the reference is printed with every figure measured against it.
+VARIANT_SPP: dict[str, int] = {}
 LEFT_OUT: dict[str, str] = {
     "final_scene": "Mitsuba has no equal of its image and marble textures, its fuzzed metal, or its two constant media "
                    "(a subsurface sphere and the mist filling the scene), and a variant without them is another scene",
@@ -117,9 +116,9 @@ def variant_reference(stem: str, settings: tuple[str, ...], graph) -> Reference:
     """The converged reference of a variant of a scene, made as converged.py makes the scene's own
     (its seeds and sample count), cached under benchmarks/.cache/."""
     tag = hashlib.sha256("\n".join(settings).encode()).hexdigest()[:10]
-    path = CACHE / f"converged-{stem}-{tag}.npz"
+    spp = VARIANT_SPP.get(stem) or SPP_BY_SCENE.get(stem, DEFAULT_SPP)
+    path = CACHE / f"converged-{stem}-{tag}-{spp}.npz"
     if not path.exists():
-        spp = VARIANT_SPP.get(stem) or SPP_BY_SCENE.get(stem, DEFAULT_SPP)
         print(f"  making the converged reference of {stem} with {'; '.join(settings)}: 2 x {spp} spp ...", flush=True)
         arrays, seconds = render_reference(graph, spp)
         CACHE.mkdir(exist_ok=True)

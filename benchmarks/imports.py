@@ -30,7 +30,8 @@ lowest first:
    the folder was floor and roof at once.
 1. the categories, each owning one kind of scene element, its rows and its kernels: `shapes/*`,
    `materials`, `textures`, `media`, `camera`, `background`, `environment`, `lights` (with the
-   light tree's `light_tree` and `light_bounds`), and the sun and sky (`sky`, `sky_data`, `sun`).
+   light tree's `light_tree` and `light_bounds`), the sun and sky (`sky`, `sky_data`, `sun`), and
+   the path guide's kernels (`guiding`: its tables and the sampling the integrator asks of it).
 2. the tracing layer, `tracing/*`: traversal, shadow rays, the integrator, tiles, probes.
 3. everything else: flattening (`compile`), building trees (`bvh`), the render session and its executors,
    kernel variants, film and state.
@@ -53,12 +54,13 @@ PACKAGES = ("scenefmt", "renderer", "rt")
 FLOOR = frozenset({
     "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
     "renderer.trees", "renderer.flat", "renderer.sampling", "renderer.film_sums", "renderer.adaptive",
-    "renderer.guiding", "renderer.guide_records",
+    "renderer.guide_records",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
     "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
     "renderer.light_tree", "renderer.light_bounds", "renderer.sky", "renderer.sky_data", "renderer.sun",
+    "renderer.guiding",
 })
 
 

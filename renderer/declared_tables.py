@@ -10,7 +10,7 @@ nothing on the render path:
 
 from __future__ import annotations
 
-from . import background, camera, environment, light_tree, lights, materials, media, textures, trees
+from . import background, camera, environment, guiding, light_tree, lights, materials, media, textures, trees
 from .columns import Layout, describe_all
 from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
@@ -26,6 +26,8 @@ def declared_layouts() -> list[Layout]:
         camera.CAMERA, background.SOLID_BACKGROUND, background.SKY_BACKGROUND, background.IMAGE_BACKGROUND,
         environment.ENV_ROW_F, environment.ENV_TEXEL_F,
         lights.LIGHT_I, lights.LIGHT_F, light_tree.LTREE_F, light_tree.LTREE_I,
+        guiding.GUIDE_F_HEAD, guiding.GUIDE_F_NODE, guiding.GUIDE_F_QUAD,
+        guiding.GUIDE_I_HEAD, guiding.GUIDE_I_NODE, guiding.GUIDE_I_QUAD,
     ]
 
 

@@ -100,6 +100,10 @@ class Measurement:
     def time_to(self, target: float) -> float:
         return time_to_error(self.wall, self.error, target)
 
+    def cpu_to(self, target: float) -> float:
+        """The same in CPU seconds: fairer where renders of one run got unequal shares of a busy machine."""
+        return time_to_error(self.cpu, self.error, target)
+
 
 def time_to_error(seconds: float, error: float, target: float) -> float:
     """The time an unbiased estimator that reached relative error `error` in `seconds` needs to
@@ -211,15 +215,15 @@ def table(rows: list[tuple[list[Measurement], Reference]], target: float, baseli
     """The markdown table of the measurements, one row per render; the last column is the row's
     time to the target over `baseline`'s at the same budget on the same scene."""
     lines = [f"| scene (kept pixels, reference's own error) | renderer | budget s | wall s | CPU s | training s | spp "
-             f"| true error | time to {100 * target:g}% (s) | / {baseline} |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             f"| true error | time to {100 * target:g}% (s) | CPU s to {100 * target:g}% | / {baseline} |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for measurements, truth in rows:
         for m in measurements:
             base = next((b for b in measurements if b.renderer == baseline and b.budget == m.budget), None)
             ratio = m.time_to(target) / base.time_to(target) if base is not None and base.time_to(target) > 0 else math.nan
             scene = f"{m.scene} ({np.mean(m.kept):.0%}, {truth.own_error():.4f})"
             lines.append(f"| {scene} | {m.renderer} | {m.budget:g} | {m.wall:.2f} | {m.cpu:.2f} | {m.training:.2f} | "
-                         f"{m.spp} | {m.error:.4f} | {m.time_to(target):.4g} | "
+                         f"{m.spp} | {m.error:.4f} | {m.time_to(target):.4g} | {m.cpu_to(target):.4g} | "
                          f"{'' if m.renderer == baseline or not math.isfinite(ratio) else f'{ratio:.2f}'} |")
     return "\n".join(lines)
 

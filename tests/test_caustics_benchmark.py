@@ -53,7 +53,8 @@ def test_the_table_prints_each_renderers_time_over_guideds():
             caustics.Measurement("s", "guided", 1.0, 2.0, 3.5, 0.5, 10, 0.05, keep)]
     text = caustics.table([(rows, truth)], 0.02)
     mis_row = next(line for line in text.splitlines() if "| mis |" in line)
-    assert mis_row.split("|")[-3].strip() == "200"  # 2 s x (0.2 / 0.02)^2
+    assert mis_row.split("|")[-4].strip() == "200"  # 2 s x (0.2 / 0.02)^2
+    assert mis_row.split("|")[-3].strip() == "350"  # the same of 3.5 CPU seconds
     assert mis_row.split("|")[-2].strip() == "16.00"  # (0.2 / 0.05)^2
 
 

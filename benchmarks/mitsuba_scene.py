@@ -6,8 +6,9 @@
     passes = render_passes(scene, spp=4, seconds=10)  # or passes=...
 
 What it converts: quads, boxes and spheres (each with its transform), the camera (no defocus), a
-black background, the materials that Mitsuba has an equal of (lambertian, diffuse_light,
-conductor, rough_dielectric, thin_dielectric, plastic), and the lights that are no shape (point,
+black background or an environment map (`envmap`), the materials that Mitsuba has an equal of
+(lambertian, diffuse_light, dielectric, metal without fuzz, conductor, rough_dielectric,
+thin_dielectric, plastic), and the lights that are no shape (point,
 spot, directional: `emitter`). Anything else raises ValueError naming it, so a comparison never
 silently renders something else (textures, normal and bump maps and a point light's radius
 included). A colour temperature or a power is converted as the model resolves it for the renderer
@@ -133,6 +134,16 @@ def bsdf(model) -> tuple[str, dict]:
         if au > 0:
             out.update(_microfacet(au, av))
         return "bsdf", out  # both sides of a dielectric are alike in Mitsuba: no `twosided`
+    elif kind == "dielectric":
+        # Smooth glass with the exact Fresnel terms, as Mitsuba's `dielectric`: two-sided already.
+        return "bsdf", {"type": "dielectric", "int_ior": float(model.ior), "ext_ior": 1.0}
+    elif kind == "metal":
+        # The books' metal is a mirror of reflectance `albedo` blurred by `fuzz`: unblurred, it is
+        # Mitsuba's conductor without a named material (reflectance 1) times that albedo. The fuzz
+        # has no equal (compare a variant with `fuzz: 0` in both).
+        if _constant(model.fuzz, "fuzz") != 0.0:
+            raise ValueError("Mitsuba has no equal of the books' fuzzed metal: the conversion takes a metal only with fuzz 0")
+        inner = {"type": "conductor", "material": "none", "specular_reflectance": _rgb(_constant(model.albedo, "albedo"))}
     elif kind == "thin_dielectric":
         # A sheet: the tint multiplies only what goes through. Two-sided in Mitsuba already.
         return "bsdf", {"type": "thindielectric", "int_ior": float(model.ior), "ext_ior": 1.0,
@@ -216,6 +227,28 @@ def emitter(model) -> dict:
     raise ValueError(f"the Mitsuba conversion has no equal of a {kind} light")
 
 
+# Mitsuba's environment map filters bilinearly, ours takes the nearest texel. Each texel is
+# repeated ENV_UPSAMPLE x ENV_UPSAMPLE times, so Mitsuba blends only within 1/(2 ENV_UPSAMPLE) of a
+# texel's edge, and a blend across an edge keeps its integral (measured: at 16, 6% of directions
+# differ from our lookup at all, each between the two neighbours it lies between).
+ENV_UPSAMPLE = 16
+
+
+def environment(graph) -> dict:
+    """Mitsuba's `envmap` emitter for an image background: the texels the renderer reads, times
+    the strength, turned about +y by the background's `rotate`. Our map's longitude phi runs from
+    -z toward -x, Mitsuba's is half a turn from ours, hence the extra 180 degrees."""
+    import mitsuba as mi
+
+    from renderer.textures import load_image_texels
+
+    bg = graph.background
+    texels = load_image_texels(graph.environment_path, "srgb") * float(bg.strength)
+    big = np.repeat(np.repeat(np.asarray(texels, np.float32), ENV_UPSAMPLE, axis=0), ENV_UPSAMPLE, axis=1)
+    return {"type": "envmap", "bitmap": mi.Bitmap(np.ascontiguousarray(big)),
+            "to_world": mi.ScalarTransform4f().rotate([0.0, 1.0, 0.0], float(bg.rotate) + 180.0)}
+
+
 def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
     """Mitsuba's scene dict for `graph`: its shapes, materials, lights, camera and path depth.
     `light_faces` is the sign of y along which two-sided quad lights shine (-1: down); one-sided
@@ -224,9 +257,11 @@ def scene_dict(graph, light_faces: float = -1.0, spp: int = 4) -> dict:
 
     background = getattr(graph, "background", None)
     colour = getattr(background, "color", background)
-    if colour is not None and not (isinstance(colour, (tuple, list)) and not any(colour)):
-        raise ValueError(f"the Mitsuba conversion takes only a black background, not {background!r}")
     objects = {}
+    if getattr(background, "type", None) == "image":
+        objects["environment"] = environment(graph)
+    elif colour is not None and not (isinstance(colour, (tuple, list)) and not any(colour)):
+        raise ValueError(f"the Mitsuba conversion takes only a black background or an image one, not {background!r}")
     for k, member in enumerate(graph.root.members):
         material = member.material.model
         slot, value = bsdf(material)

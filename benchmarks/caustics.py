@@ -1,0 +1,266 @@
+"""Time to a true error of 2% on the scenes lit through glass (issue 34): each integrator, and Mitsuba 3.
+
+    python benchmarks/caustics.py [--scenes sky_spheres,caustic_glass,...] [--integrators mis guided]
+                                  [--seconds 4] [--target 0.02] [--mitsuba]
+
+For each scene at the converged references' size (48 pixels wide, tests/renderer/converged.py),
+each integrator renders for a budget of `--seconds` and again for 4 x that budget, interleaved
+(mis, guided, mis, guided), in this one process, on the full general kernel, loaded or compiled
+before any clock starts. Each render's TRUE relative RMS error is measured against the scene's
+converged reference with the reference's own expected squared error taken out
+(converged.true_error), over the same pixels for every renderer: all but those whose camera rays
+see a light or the background directly (light_pixels.sees_light), whose value is the camera's
+sampling of a light's edge or the sky, the same for every integrator.
+
+The time to reach the target error is t x (e / target)^2: an unbiased estimator's squared error
+falls as one over its samples, so as one over the time spent. t is the whole wall time of the
+render call (for guided, its training included; the training's own seconds are printed too).
+Printed for both budgets: where the two agree, the extrapolation holds; where the longer one
+is much lower, the short render missed rare paths that its own figure could not see.
+
+With --mitsuba, Mitsuba 3's `path` integrator (llvm_ad_rgb, the same max depth, box filter, the
+same camera and pixels: mitsuba_scene.py) renders each scene for the same wall times, its error
+measured the same way (a lamp inside glass given Mitsuba's radiance convention: MITSUBA_EMITTER_SCALE).
+Where Mitsuba has no equal of something in a scene, both renderers render
+a variant (VARIANTS) against that variant's own converged reference (made here the first time,
+with converged.py's seeds and sample counts, and kept in benchmarks/.cache/); a scene with no
+faithful variant is left out of the comparison with the reason printed (LEFT_OUT).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CACHE = Path(__file__).resolve().parent / ".cache"
+for _path in (str(ROOT), str(Path(__file__).resolve().parent)):
+    if _path not in sys.path:
+        sys.path.insert(0, _path)
+
+from tests.renderer.converged import (  # noqa: E402
+    DEFAULT_SPP, SPP_BY_SCENE, Reference, load_reference, read_reference, render_reference, scene_file, small_graph,
+    true_error)
+
+SCENES = ("sky_spheres", "caustic_glass", "final_scene", "glass_lamp", "cornell_box")
+INTEGRATORS = ("mis", "guided")
+BUDGET_FACTORS = (1, 4)  # each render at t and at 4 t: the time-to-error figure must hold at both
+KERNEL = "general"  # one compiled kernel for every integrator and scene (renderer/variants.py)
+MITSUBA_PASS_SPP = 16
+LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+
+# What each scene becomes for Mitsuba (`rt render --set` arguments), where Mitsuba has no equal of
+# something in it. Both renderers render the variant, against its own converged reference.
+VARIANTS: dict[str, tuple[str, ...]] = {
+    # The books' fuzzed metal has no Mitsuba equal; unfuzzed it is a mirror in both.
+    "sky_spheres": ("materials.steel.fuzz=0",),
+    # The books' lamp is two-sided and lights the ceiling through the gap above it; Mitsuba's
+    # area light is one-sided: make ours one-sided too (`sides: front`, facing down).
+    "cornell_box": ("materials.light.sides=front",),
+}
+# Sample counts of a variant's reference where they are not the scene's own (converged.SPP_BY_SCENE).
+# The own error of the reference is printed with every figure measured against it.
+VARIANT_SPP: dict[str, int] = {}
+# Radiance crossing into a denser medium is compressed by the squared ratio of the indices, and
+# Mitsuba's dielectric (in radiance mode, as pbrt-v4's) scales it so: light leaving glass of index
+# n is divided by n^2 and light entering multiplied by it. Ours does not scale it. A path that enters
+# and leaves the glass gets both factors, which cancel; a lamp inside the glass gets only the first,
+# so Mitsuba renders glass_lamp's lamp 1 / 1.5^2 = 0.444 as bright (measured: 0.445 of our image's
+# mean, and 1.000 with the glass made black). The lamp's radiance as given is ours inside the glass,
+# so Mitsuba's emitter is given n^2 times it: then both render the same image.
+MITSUBA_EMITTER_SCALE: dict[str, float] = {"glass_lamp": 1.5**2}
+LEFT_OUT: dict[str, str] = {
+    "final_scene": "Mitsuba has no equal of its image and marble textures, its fuzzed metal, or its two constant media "
+                   "(a subsurface sphere and the mist filling the scene), and a variant without them is another scene",
+}
+
+
+@dataclass
+class Measurement:
+    """One render of one scene: by which renderer, for which budget, and what it reached."""
+
+    scene: str  # the scene's name, with '@variant' for a Mitsuba variant
+    renderer: str  # an integrator's name, or 'mitsuba'
+    budget: float  # seconds asked for
+    wall: float  # seconds of wall time the whole render took (for guided, the training included)
+    cpu: float  # CPU seconds of this process over the same span (every thread)
+    training: float  # seconds of that spent training a guide (0 for the others)
+    spp: int
+    error: float  # true relative RMS error over the kept pixels
+    kept: np.ndarray  # the pixels measured (rows, columns), the same array for every renderer of the scene
+
+    def time_to(self, target: float) -> float:
+        return time_to_error(self.wall, self.error, target)
+
+    def cpu_to(self, target: float) -> float:
+        """The same in CPU seconds: fairer where renders of one run got unequal shares of a busy machine."""
+        return time_to_error(self.cpu, self.error, target)
+
+
+def time_to_error(seconds: float, error: float, target: float) -> float:
+    """The time an unbiased estimator that reached relative error `error` in `seconds` needs to
+    reach `target`: its squared error falls as one over the time, so t (e / target)^2."""
+    if not (math.isfinite(seconds) and math.isfinite(error)) or target <= 0.0:
+        return math.inf
+    return seconds * (error / target) ** 2
+
+
+def kept_pixels(graph) -> np.ndarray:
+    """The pixels measured: all but those whose camera rays see a light or the background directly."""
+    from light_pixels import sees_light
+
+    return ~sees_light(graph)
+
+
+def masked(reference: Reference, keep: np.ndarray) -> Reference:
+    """The reference restricted to the kept pixels (true_error and own_error sum over what they get)."""
+    return Reference(reference.mean[keep], reference.var[keep], reference.difference[keep], reference.spp)
+
+
+def variant_reference(stem: str, settings: tuple[str, ...], graph) -> Reference:
+    """The converged reference of a variant of a scene, made as converged.py makes the scene's own
+    (its seeds and sample count), cached under benchmarks/.cache/."""
+    tag = hashlib.sha256("\n".join(settings).encode()).hexdigest()[:10]
+    spp = VARIANT_SPP.get(stem) or SPP_BY_SCENE.get(stem, DEFAULT_SPP)
+    path = CACHE / f"converged-{stem}-{tag}-{spp}.npz"
+    if not path.exists():
+        print(f"  making the converged reference of {stem} with {'; '.join(settings)}: 2 x {spp} spp ...", flush=True)
+        arrays, seconds = render_reference(graph, spp)
+        CACHE.mkdir(exist_ok=True)
+        np.savez_compressed(path, **arrays)
+        print(f"  ... {seconds[0]:.0f} + {seconds[1]:.0f} s (cached in {path.relative_to(ROOT)})", flush=True)
+    return read_reference(path)
+
+
+def training_seconds(stats) -> float:
+    """The seconds a render spent training its guide (RenderStats.guide_training; 0 without one)."""
+    training = getattr(stats, "guide_training", None)
+    return float(training.total_seconds) if training is not None else 0.0
+
+
+def measure_rt(scene: str, graph, integrator: str, seconds: float, truth: Reference, keep: np.ndarray,
+               seed: int) -> Measurement:
+    """Render `graph` with `integrator` for `seconds` (the kernel loaded first) and measure it."""
+    from renderer.compile import compile_scene, with_integrator
+    from renderer.render import render
+
+    g = with_integrator(graph, integrator)
+    flat = compile_scene(g)
+    render(g, flat=flat, samples=1, kernel=KERNEL)  # compile or load the kernels before the clock starts
+    w0, c0 = time.perf_counter(), time.process_time()
+    result = render(g, flat=flat, samples=1 << 40, time_budget=seconds, seed=seed, kernel=KERNEL)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    # A budget the training used up leaves no sample: no image, an infinite error and time.
+    error = true_error(result.film.mean()[keep], truth) if result.film.samples > 0 else math.inf
+    return Measurement(scene, integrator, seconds, wall, cpu, training_seconds(result.stats), result.film.samples,
+                       error, keep)
+
+
+def mitsuba_variant() -> str:
+    """Mitsuba's LLVM variant (its library named for Dr.Jit where this machine has it)."""
+    if os.path.exists(LLVM):
+        os.environ.setdefault("DRJIT_LIBLLVM_PATH", LLVM)
+    from mitsuba_scene import set_variant
+
+    return set_variant()
+
+
+def measure_mitsuba(scene: str, graph, seconds: float, truth: Reference, keep: np.ndarray, seed: int) -> Measurement:
+    """Mitsuba 3's path tracer on `graph` for `seconds` of wall time (its kernel traced and compiled
+    by a first pass before the clock starts), measured as ours are."""
+    import mitsuba as mi
+    from mitsuba_scene import render_passes, scene_dict
+
+    converted = scene_dict(graph, spp=MITSUBA_PASS_SPP)
+    scale = MITSUBA_EMITTER_SCALE.get(scene.split("@")[0], 1.0)
+    for entry in converted.values():
+        if isinstance(entry, dict) and entry.get("emitter", {}).get("type") == "area":
+            radiance = entry["emitter"]["radiance"]
+            radiance["value"] = [scale * x for x in radiance["value"]]
+    scene_mi = mi.load_dict(converted)
+    passes = render_passes(scene_mi, MITSUBA_PASS_SPP, seconds=seconds, seed=1000 * seed)
+    return Measurement(scene, "mitsuba", seconds, passes.seconds, passes.cpu_seconds, 0.0, passes.samples,
+                       true_error(passes.mean()[keep], truth), keep)
+
+
+def measure_scene(stem: str, integrators=INTEGRATORS, seconds: float = 4.0, factors=BUDGET_FACTORS,
+                  mitsuba: bool = False, settings: tuple[str, ...] = ()) -> tuple[list[Measurement], Reference]:
+    """Every renderer on one scene (or its variant, with `settings`) at each budget, interleaved:
+    the measurements, and the reference restricted to the kept pixels."""
+    path = scene_file(stem)
+    graph = small_graph(path, settings)
+    reference = variant_reference(stem, settings, graph) if settings else load_reference(stem)
+    keep = kept_pixels(graph)
+    truth = masked(reference, keep)
+    name = stem + ("@variant" if settings else "")
+    out = []
+    for seed, factor in enumerate(factors, start=1):
+        budget = seconds * factor
+        for integrator in integrators:
+            out.append(measure_rt(name, graph, integrator, budget, truth, keep, seed))
+        if mitsuba:
+            out.append(measure_mitsuba(name, graph, budget, truth, keep, seed))
+    return out, truth
+
+
+def table(rows: list[tuple[list[Measurement], Reference]], target: float, baseline: str = "guided") -> str:
+    """The markdown table of the measurements, one row per render; the last column is the row's
+    time to the target over `baseline`'s at the same budget on the same scene."""
+    lines = [f"| scene (kept pixels, reference's own error) | renderer | budget s | wall s | CPU s | training s | spp "
+             f"| true error | time to {100 * target:g}% (s) | CPU s to {100 * target:g}% | / {baseline} |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for measurements, truth in rows:
+        for m in measurements:
+            base = next((b for b in measurements if b.renderer == baseline and b.budget == m.budget), None)
+            ratio = m.time_to(target) / base.time_to(target) if base is not None and base.time_to(target) > 0 else math.nan
+            scene = f"{m.scene} ({np.mean(m.kept):.0%}, {truth.own_error():.4f})"
+            lines.append(f"| {scene} | {m.renderer} | {m.budget:g} | {m.wall:.2f} | {m.cpu:.2f} | {m.training:.2f} | "
+                         f"{m.spp} | {m.error:.4f} | {m.time_to(target):.4g} | {m.cpu_to(target):.4g} | "
+                         f"{'' if m.renderer == baseline or not math.isfinite(ratio) else f'{ratio:.2f}'} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--integrators", nargs="+", default=list(INTEGRATORS))
+    parser.add_argument("--seconds", type=float, default=4.0, help="the shorter budget per render (the longer is 4x)")
+    parser.add_argument("--target", type=float, default=0.02, help="relative RMS error to reach")
+    parser.add_argument("--mitsuba", action="store_true", help="also Mitsuba 3 at the same wall times")
+    args = parser.parse_args(argv)
+    import numba
+
+    started = time.perf_counter()
+    print(f"{numba.get_num_threads()} threads, {KERNEL} kernel, budgets "
+          f"{', '.join(f'{args.seconds * f:g}' for f in BUDGET_FACTORS)} s; target {100 * args.target:g}%", flush=True)
+    if args.mitsuba:
+        print(f"Mitsuba {__import__('mitsuba').__version__} {mitsuba_variant()}, passes of {MITSUBA_PASS_SPP} spp", flush=True)
+    rows = []
+    baseline = "guided" if "guided" in args.integrators else args.integrators[-1]
+    for stem in args.scenes.split(","):
+        print(f"{stem} ...", flush=True)
+        as_is = args.mitsuba and stem not in VARIANTS and stem not in LEFT_OUT
+        rows.append(measure_scene(stem, args.integrators, args.seconds, mitsuba=as_is))
+        if args.mitsuba and stem in VARIANTS:
+            print(f"{stem}, variant for Mitsuba ({'; '.join(VARIANTS[stem])}) ...", flush=True)
+            rows.append(measure_scene(stem, args.integrators, args.seconds, mitsuba=True, settings=VARIANTS[stem]))
+    print()
+    print(table(rows, args.target, baseline))
+    if args.mitsuba:
+        for stem in args.scenes.split(","):
+            if stem in LEFT_OUT:
+                print(f"\n{stem}: left out of the Mitsuba comparison: {LEFT_OUT[stem]}.")
+    print(f"\n{time.perf_counter() - started:.0f} s in all")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -25,8 +25,9 @@ FIRST_BAND_ROWS_PER_THREAD = 2
 BAND_GROWTH = 8
 # A pass should take about this long: short enough for progress and a stop between passes.
 PASS_SECONDS = 0.25
-# integrator caustics: the most memory a pass's photon shares may take (its samples x pixels x 3 doubles).
-SPLAT_BYTES = 1 << 28
+# integrator caustics: the most memory a pass's photon shares may take (its samples x pixels x 3
+# doubles); the photons' own values take 4/3 of it while they are added up (scenefmt.bounds counts both).
+SPLAT_BYTES = 1 << 26
 
 
 class Bands:
@@ -190,8 +191,9 @@ class LocalPasses:
         undo = None
         start = 0
         splats = None
-        if self.estimator == INTEGRATOR_CAUSTICS:
+        if self.estimator == INTEGRATOR_CAUSTICS and len(self.flat.caustic_f) and len(self.flat.caustic_lf):
             # Every sample's photons first: they land anywhere in the image (tracing/caustics.py).
+            # A scene with no target or no light to send photons has none: it renders as mis.
             splats = self.kernels.caustic_splats(self.flat, self.width, height, self.seed, film.samples, n, self.depth)
         while start < height:
             if start > 0 and should_stop is not None and should_stop():

@@ -82,6 +82,9 @@ MESH_TRIANGLE_BYTES = 300
 # guide's arrays made from them (44 MB), numpy's temporaries while the guide is built, and the guide
 # itself (renderer/guide_build.py caps its nodes); its scratch film is counted as the film is.
 GUIDE_TRAINING_BYTES = 260_000_000
+# integrator caustics: a pass's photon shares of every pixel (at most renderer.local_passes.SPLAT_BYTES,
+# 64 MiB) and its photons' values (a pixel index and a colour each: 4/3 of that) while they are added up.
+CAUSTIC_PASS_BYTES = (1 << 26) * 7 // 3
 
 
 def physical_memory() -> int:
@@ -316,7 +319,7 @@ class MemoryEstimate:
 
     def describe(self) -> str:
         shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees"),
-                 (self.lights, "lights"), (self.guide, "guide")]
+                 (self.lights, "lights"), (self.guide, "guide or photons")]
         return ", ".join(f"{name} {gib(n)}" for n, name in shown if n >= 1 << 20) or "under 1 MiB"
 
 
@@ -470,6 +473,9 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     est.parts["lights"] = ("lights",) if len(graph.lights) > root.lights else ("shapes",)
     if image.integrator == "guided":
         est.guide = GUIDE_TRAINING_BYTES + est.film
+        est.parts["guide"] = ("image", "integrator")
+    elif image.integrator == "caustics":
+        est.guide = CAUSTIC_PASS_BYTES
         est.parts["guide"] = ("image", "integrator")
     return est
 

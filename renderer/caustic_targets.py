@@ -124,23 +124,29 @@ def _weight_from(cf, t, x):
 
 
 @target.device
+def _pick(cf, x, across, u0):
+    """The target u0 chooses: in proportion to its cross-section (`across`: light at infinity)
+    or to the solid angle it subtends from point x."""
+    n = cf.shape[0]
+    total = 0.0
+    for t in range(n):
+        total += cf[t, CT_RADIUS] * cf[t, CT_RADIUS] if across else _weight_from(cf, t, x)
+    pick = u0 * total
+    acc = 0.0
+    for t in range(n):
+        acc += cf[t, CT_RADIUS] * cf[t, CT_RADIUS] if across else _weight_from(cf, t, x)
+        if pick < acc:
+            return t
+    return n - 1
+
+
+@target.device
 def sample_toward_targets(cf, x, u0, u1, u2):
     """A unit direction from point x towards the targets (one chosen by solid angle, then uniform
     in its cone) and the mixture's solid angle density; density 0 when there are no targets."""
-    n = cf.shape[0]
-    if n == 0:
+    if cf.shape[0] == 0:
         return (0.0, 0.0, 1.0), 0.0
-    total = 0.0
-    for t in range(n):
-        total += _weight_from(cf, t, x)
-    pick = u0 * total
-    chosen = n - 1
-    acc = 0.0
-    for t in range(n):
-        acc += _weight_from(cf, t, x)
-        if pick < acc:
-            chosen = t
-            break
+    chosen = _pick(cf, x, False, u0)
     axis, cos_max, solid = _cone_of(cf, chosen, x)
     cos_t = 1.0 - u1 * (1.0 - cos_max)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
@@ -173,20 +179,9 @@ def sample_across_targets(cf, w, u0, u1, u2):
     """For light arriving along -w (w: unit, towards the light at infinity): a point on the plane
     through the origin perpendicular to w, in the disc a target casts on it (one chosen by its
     cross-section, then uniform in its disc), and the mixture's density per unit area there."""
-    n = cf.shape[0]
-    if n == 0:
+    if cf.shape[0] == 0:
         return (0.0, 0.0, 0.0), 0.0
-    total = 0.0
-    for t in range(n):
-        total += cf[t, CT_RADIUS] * cf[t, CT_RADIUS]
-    pick = u0 * total
-    chosen = n - 1
-    acc = 0.0
-    for t in range(n):
-        acc += cf[t, CT_RADIUS] * cf[t, CT_RADIUS]
-        if pick < acc:
-            chosen = t
-            break
+    chosen = _pick(cf, w, True, u0)
     r = cf[chosen, CT_RADIUS] * math.sqrt(u1)
     phi = 2.0 * math.pi * u2
     s, b = _frame(w)

@@ -283,9 +283,9 @@ def render(
     integrator: Optional[str] = typer.Option(
         None, "--integrator",
         help="How light is found (overrides the file): mis (light sampling with multiple importance sampling, the "
-        "default), path (the books' estimator, which finds lights only by chance) or guided (mis whose bounces also "
-        "follow where light was learned to come from, after a few seconds of training: for caustics and light "
-        "through glass).",
+        "default), path (the books' estimator, which finds lights only by chance), caustics (mis, with the light that "
+        "reaches a matte surface through glass or mirror spheres traced from the lights: caustics, a lamp inside "
+        "glass; one process only) or guided (mis whose bounces follow a learned guide; see docs/integrators.md).",
     ),
     sampler: Optional[str] = typer.Option(
         None, "--sampler",
@@ -339,7 +339,7 @@ def watch(
     overrides: List[str] = _SET_OPTION,
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
-    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default), path or guided, as for rt render."),
+    integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default), path, caustics or guided, as for rt render."),
     allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""

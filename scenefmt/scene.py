@@ -173,11 +173,11 @@ class Image(StrictModel):
         "mis",
         description="How light is found: mis samples points on the lights at every diffuse or medium vertex and "
         "weighs them against the path's own hits (multiple importance sampling, with Russian roulette past a few "
-        "bounces); path is the books' estimator, which finds a light only by chance; guided is mis whose bounces "
-        "also follow a distribution of where light arrives from, learned by a short training render first: for "
-        "light that reaches matte surfaces through glass or mirrors (caustics), which mis finds only by chance; "
-        "caustics is mis with the light that reaches a matte surface the camera sees through glass or mirror spheres "
-        "traced from the lights instead (light tracing), which finds those caustics at once.",
+        "bounces); path is the books' estimator, which finds a light only by chance; caustics is mis with the "
+        "light that reaches a matte surface the camera sees through glass or mirror spheres (a caustic, a lamp "
+        "inside a glass ball) traced from the lights instead, which mis finds only by chance (one process, not a "
+        "cluster); guided is mis whose bounces also follow where light was learned to come from by a short "
+        "training render (a trial that did not beat mis on our scenes; docs/integrators.md).",
     )
     sampler: Literal["independent", "sobol"] = Field(
         "independent",

@@ -8,8 +8,10 @@ path tracer finds such a path only when a diffuse bounce happens to leave toward
 the glass happens to refract onto the light (a small lamp, the sun); a photon sent from the light
 towards the glass finds the matte surface behind it every time, and is joined to the camera.
 
-A target is a sphere with a purely specular material (no part with a density), each placement of
-it in world space; a primitive is a target in every placement or in none (`caustic_prim`), so the
+A photon passes only through the books' glass and metals without a map (`caustic_mat`): their
+scattering is its own reverse (exact Fresnel at the glass, a lobe about the mirror direction at the
+metal, no radiance scaled by the index), so a photon traced through them carries what a path traced
+the other way would. A target is a sphere of such a material, each placement of it in world space; a primitive is a target in every placement or in none (`caustic_prim`), so the
 path tracer can tell a path the photons cover by the primitive it hit. Shapes of other kinds stay
 with the path tracer: a photon whose first hit is not a target is dropped, and a path whose last
 specular vertex is not one is kept by the path tracer, so the split is exact whatever is listed.
@@ -42,9 +44,10 @@ CAUSTIC_F = Layout("caustic_f", "float64", [
 CT_CENTER, CT_RADIUS = CAUSTIC_F.offsets("center", "radius")
 
 
-def no_targets(prims: int) -> dict:
+def no_targets(prims: int, materials: int) -> dict:
     """The tables of a scene without caustic targets (or not rendered with integrator caustics)."""
-    return {"caustic_f": np.zeros((0, CAUSTIC_F.width), np.float64), "caustic_prim": np.zeros(prims, np.int32)}
+    return {"caustic_f": np.zeros((0, CAUSTIC_F.width), np.float64), "caustic_prim": np.zeros(prims, np.int32),
+            "caustic_mat": np.zeros(materials, np.int32)}
 
 
 def target_tables(flat, sphere_kind: int, specular_materials: np.ndarray, radius_column: int, center_column: int,
@@ -54,7 +57,7 @@ def target_tables(flat, sphere_kind: int, specular_materials: np.ndarray, radius
     placement maps spheres to spheres (a similarity)."""
     prims = len(flat.prims_i)
     if prims == 0 or not specular_materials.any():
-        return no_targets(prims)
+        return no_targets(prims, len(flat.mat_i))
     from .shapes import PRIM_KIND, PRIM_MATERIAL
 
     candidate = np.zeros(prims, np.bool_)
@@ -63,7 +66,7 @@ def target_tables(flat, sphere_kind: int, specular_materials: np.ndarray, radius
     mats = flat.prims_i[:n_surf, PRIM_MATERIAL]
     candidate[:n_surf] = (kinds == sphere_kind) & specular_materials[mats]
     if not candidate.any():
-        return no_targets(prims)
+        return no_targets(prims, len(flat.mat_i))
     lin_all = flat.inst_f[:, world_from_object:world_from_object + 12].reshape(-1, 3, 4)
     placements: dict[int, list] = {}
     refused = np.zeros(prims, np.bool_)
@@ -79,7 +82,7 @@ def target_tables(flat, sphere_kind: int, specular_materials: np.ndarray, radius
             refused[rows] = True
             continue
         centers = flat.prims_f[rows, center_column:center_column + 3] @ m[:, :3].T + m[:, 3]
-        radii = flat.prims_f[rows, radius_column] * math.sqrt(scale2)
+        radii = np.abs(flat.prims_f[rows, radius_column]) * math.sqrt(scale2)  # a bubble's radius is negative
         for r, c, rad in zip(rows.tolist(), centers, radii):
             placements.setdefault(r, []).append((c, rad))
     rows_out = []
@@ -91,7 +94,7 @@ def target_tables(flat, sphere_kind: int, specular_materials: np.ndarray, radius
         rows_out += where
     table = CAUSTIC_F.array(len(rows_out), center=np.array([c for c, _ in rows_out]).reshape(-1, 3),
                             radius=np.array([r for _, r in rows_out], np.float64))
-    return {"caustic_f": table, "caustic_prim": caustic_prim}
+    return {"caustic_f": table, "caustic_prim": caustic_prim, "caustic_mat": specular_materials.astype(np.int32)}
 
 
 @target.device

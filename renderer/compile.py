@@ -394,7 +394,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         **lights.no_lights(0, 0),
         **environment.no_environment(),
         **guiding.empty_guide(),
-        **caustic_targets.no_targets(len(prim_i) + len(mesh.prims_i)),
+        **caustic_targets.no_targets(len(prim_i) + len(mesh.prims_i), len(walk.mat_i)),
         caustic_lf=light_emission.no_photon_lights(),
     )
     env_tables, env_power = environment.environment_tables(flat, walk.graph)

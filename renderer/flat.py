@@ -75,6 +75,7 @@ class FlatScene(NamedTuple):
     # unless the integrator is `caustics`.
     caustic_f: np.ndarray  # caustic_targets.CAUSTIC_F
     caustic_prim: np.ndarray  # (P,) int32
+    caustic_mat: np.ndarray  # (M,) int32: 1 for a material a photon passes through (the books' glass and metal)
     caustic_lf: np.ndarray  # light_emission.CAUSTIC_LIGHT_F
 
 

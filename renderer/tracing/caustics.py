@@ -103,6 +103,8 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
                 return -1, 0.0, 0.0, 0.0
             c = seen * f * k / dist2
             return j * width + i, br * tint[0] * c, bg * tint[1] * c, bb * tint[2] * c
+        if S.caustic_mat[mat] == 0:
+            return -1, 0.0, 0.0, 0.0  # a specular material photons do not pass: the path tracer's path
         specular += 1
         new_d, att, _, delta = sample_bsdf(S.mat_i, S.mat_f, mat, color, params, d, n_front, NO_TANGENT, front, key,
                                           bounce_dim(bounce, 0))

@@ -229,7 +229,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
                 chain = 1 if (not volume and dense and not delta and not maps and not is_zero(new_d)
                               and not is_anisotropic(S.mat_i, mat, params)) else 0
             elif chain > 0:
-                if volume or dense or maps:
+                if volume or dense or maps or S.caustic_mat[mat] == 0:
                     chain = 0
                 else:
                     chain = 2

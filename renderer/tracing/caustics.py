@@ -26,7 +26,7 @@ from .. import target
 from ..camera import CAM_CLOSE, CAM_OPEN, camera_importance
 from ..kernel_flags import INSTANCES, MOTION
 from ..light_emission import emit_photon
-from ..materials import (NO_TANGENT, emits, eval_bsdf, has_density, has_shading_map, is_anisotropic, is_zero,
+from ..materials import (DIELECTRIC, MAT_IOR, MAT_KIND, NO_TANGENT, emits, eval_bsdf, has_density, has_shading_map, is_anisotropic, is_zero,
                          material_at, sample_bsdf, scatters)
 from ..numerics.rng import DIM_TIME, bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
@@ -110,9 +110,18 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
                                           bounce_dim(bounce, 0))
         if is_zero(new_d):
             return -1, 0.0, 0.0, 0.0
-        br *= att[0]
-        bg *= att[1]
-        bb *= att[2]
+        k = 1.0
+        if S.mat_i[mat, MAT_KIND] == DIELECTRIC and dot(new_d, n_front) < 0.0:
+            # Refracted. A photon carries flux, and the solid angle it fills is squeezed by (n_from /
+            # n_to)^2 as it crosses: the radiance it implies beyond is scaled by that. Our glass, as
+            # the books', passes radiance unscaled (a path computes T L), so the photon carries
+            # (n_from / n_to)^2 its flux to match: the factors cancel on a path into and out of the
+            # glass, and a lamp inside a glass ball shows as bright as the path tracer renders it.
+            ior = S.mat_f[mat, MAT_IOR]
+            k = 1.0 / (ior * ior) if front else ior * ior
+        br *= att[0] * k
+        bg *= att[1] * k
+        bb *= att[2] * k
         if br == 0.0 and bg == 0.0 and bb == 0.0:
             return -1, 0.0, 0.0, 0.0
         o = spawn_origin(p, o, n_front, new_d)

@@ -202,6 +202,18 @@ def test_caustics_converges_to_mis_under_the_sky_with_a_glass_and_a_steel_sphere
 
 
 @pytest.mark.slow
+def test_caustics_converges_to_mis_with_the_lamp_inside_a_glass_ball():
+    """Photons that only leave the glass: the radiance convention of our glass (unscaled by n^2)
+    must hold for them too (a first version rendered this floor at 1 / 1.5^2 of mis's)."""
+    # Blocks of 12 x 12: the floor's paths through the clay ball to the lamp stay mis's, rare at
+    # 512 spp, so a small block's spread can miss them (a 6 x 6 block once reached |z| 5.8 with the
+    # image mean at -0.5); the bug this guards against (the floor at 0.45 of its brightness) is far past the bound.
+    z, total = _converges_to_reference("glass_lamp", ROOT / "benchmarks" / "scenes" / "glass_lamp.yaml", 512, 45, block=12)
+    assert np.abs(z).max() < z_limit(z.size)
+    assert np.all(np.abs(total) < z_limit(3))
+
+
+@pytest.mark.slow
 def test_caustics_is_the_same_on_any_thread_count_and_finite():
     one = rt.render(CAUSTIC, spp=4, width=24, seed=4, integrator="caustics", kernel="general", threads=1)
     two = rt.render(CAUSTIC, spp=4, width=24, seed=4, integrator="caustics", kernel="general", threads=2)

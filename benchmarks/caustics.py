@@ -61,7 +61,7 @@ for _path in (str(ROOT), str(Path(__file__).resolve().parent)):
         sys.path.insert(0, _path)
 
 from tests.renderer.converged import (  # noqa: E402
-    DEFAULT_SPP, SPP_BY_SCENE, Reference, load_reference, read_reference, reference_path, render_reference, scene_file,
+    DEFAULT_SPP, SPP_BY_SCENE, Reference, read_reference, reference_path, render_reference, scene_file,
     small_graph, true_error)
 
 SCENES = ("sky_spheres", "caustic_glass", "final_scene", "glass_lamp", "cornell_box")
@@ -157,29 +157,33 @@ def variant_reference_path(stem: str, settings: tuple[str, ...], integrator: str
     return CACHE / f"converged-{stem}-{tag}-{spp}{suffix}.npz"
 
 
-def variant_reference(stem: str, settings: tuple[str, ...], graph) -> Reference:
+def variant_reference(stem: str, settings: tuple[str, ...], graph, integrator: str = "mis") -> Reference:
     """The converged reference of a variant of a scene, made as converged.py makes the scene's own
-    (its seeds and sample count, the scene's own integrator), cached under benchmarks/.cache/."""
-    path = variant_reference_path(stem, settings)
+    (its seeds and sample count; the scene's own integrator or `integrator`), cached under
+    benchmarks/.cache/."""
+    path = variant_reference_path(stem, settings, integrator)
     if not path.exists():
         spp = VARIANT_SPP.get(stem) or SPP_BY_SCENE.get(stem, DEFAULT_SPP)
-        print(f"  making the converged reference of {stem} with {'; '.join(settings)}: 2 x {spp} spp ...", flush=True)
-        arrays, seconds = render_reference(graph, spp)
+        print(f"  making the {integrator} reference of {stem} with {'; '.join(settings)}: 2 x {spp} spp ...", flush=True)
+        arrays, seconds = render_reference(graph, spp, None if integrator == "mis" else integrator)
         CACHE.mkdir(exist_ok=True)
         np.savez_compressed(path, **arrays)
         print(f"  ... {seconds[0]:.0f} + {seconds[1]:.0f} s (cached in {path.relative_to(ROOT)})", flush=True)
     return read_reference(path)
 
 
-def references_of(stem: str, settings: tuple[str, ...], graph, integrators=REFERENCES) -> dict[str, Reference]:
+def references_of(stem: str, settings: tuple[str, ...], graph, integrators=REFERENCES,
+                  make: tuple[str, ...] = ()) -> dict[str, Reference]:
     """The converged references of a scene (or of its variant) there are, by the integrator that
-    made them: mis's is made where missing (a variant's), another integrator's only read."""
+    made them: a variant's mis reference, and those of the integrators in `make`, are made where
+    missing; any other only read where it was made before (converged.py --integrator)."""
     out = {}
     for integrator in integrators:
-        if integrator == "mis":
-            out[integrator] = variant_reference(stem, settings, graph) if settings else load_reference(stem)
+        if settings and (integrator == "mis" or integrator in make):
+            out[integrator] = variant_reference(stem, settings, graph, integrator)
             continue
-        path = variant_reference_path(stem, settings, integrator) if settings else reference_path(stem, integrator)
+        path = variant_reference_path(stem, settings, integrator) if settings else reference_path(
+            stem, None if integrator == "mis" else integrator)
         if path.exists():
             out[integrator] = read_reference(path)
     return out
@@ -282,13 +286,13 @@ class SceneRows:
 
 def measure_scene_pixels(stem: str, integrators=INTEGRATORS, seconds: float = 4.0, factors=BUDGET_FACTORS,
                          mitsuba: bool = False, settings: tuple[str, ...] = (), pixels=PIXELS[:1],
-                         references=REFERENCES) -> list[SceneRows]:
+                         references=REFERENCES, make: tuple[str, ...] = ()) -> list[SceneRows]:
     """Every renderer on one scene (or its variant, with `settings`) at each budget, interleaved,
     each render measured on every set of `pixels` against the scene's better reference there."""
     from reference_agreement import agreement
 
     graph = small_graph(scene_file(stem), settings)
-    available = references_of(stem, settings, graph, references)
+    available = references_of(stem, settings, graph, references, make)
     name = stem + ("@variant" if settings else "")
     renders = []
     for seed, factor in enumerate(factors, start=1):
@@ -361,6 +365,9 @@ def main(argv=None) -> int:
                              "the background; matte: only those whose camera rays all land on a matte surface)")
     parser.add_argument("--references", nargs="+", default=list(REFERENCES),
                         help="the integrators whose converged references may be used (the better one is)")
+    parser.add_argument("--make-variant-references", nargs="*", default=[], metavar="INTEGRATOR",
+                        help="also make the Mitsuba variants' references with these integrators where missing "
+                             "(mis's always are)")
     args = parser.parse_args(argv)
     import numba
 
@@ -379,7 +386,8 @@ def main(argv=None) -> int:
         if args.mitsuba and stem in VARIANTS:
             print(f"{stem}, variant for Mitsuba ({'; '.join(VARIANTS[stem])}) ...", flush=True)
             rows += measure_scene_pixels(stem, args.integrators, args.seconds, mitsuba=True, settings=VARIANTS[stem],
-                                         pixels=args.pixels, references=args.references)
+                                         pixels=args.pixels, references=args.references,
+                                         make=tuple(args.make_variant_references))
     for pixels in args.pixels:
         mine = [r for r in rows if r.pixels == pixels]
         print(f"\n{pixels} pixels:\n")

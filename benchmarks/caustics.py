@@ -297,7 +297,6 @@ def measure_scene_pixels(stem: str, integrators=INTEGRATORS, seconds: float = 4.
     from reference_agreement import agreement
 
     graph = small_graph(scene_file(stem), settings)
-    available = references_of(stem, settings, graph, references, make)
     name = stem + ("@variant" if settings else "")
     renders = []
     for seed, factor in enumerate(factors, start=1):
@@ -306,6 +305,8 @@ def measure_scene_pixels(stem: str, integrators=INTEGRATORS, seconds: float = 4.
             renders.append(render_rt(name, graph, integrator, budget, seed))
         if mitsuba:
             renders.append(render_mitsuba(name, graph, budget, seed))
+    # Read (or made) after the renders: a reference still being made elsewhere may be ready by then.
+    available = references_of(stem, settings, graph, references, make)
     out = []
     for kind in pixels:
         keep = kept_pixels(graph, kind)

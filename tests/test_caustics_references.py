@@ -99,3 +99,15 @@ def test_matte_pixels_leave_out_the_sky_and_the_spheres_of_glass_and_steel():
     # Rows 10 to 15 cross the three spheres: the steel one in the middle is left out, the
     # clay one on the left kept.
     assert not matte[10:16, 24].any() and matte[10:16, 5].all()
+
+
+def test_the_table_names_each_scenes_reference_and_its_ratio_is_over_caustics():
+    keep = np.ones((2, 2), bool)
+    truth = Reference(np.ones((4, 3)), np.zeros((4, 3)), np.full((4, 3), 0.1), 1)
+    rows = [caustics.Measurement("s", "mis", 1.0, 2.0, 2.0, 0.0, 10, 0.2, keep),
+            caustics.Measurement("s", "caustics", 1.0, 2.0, 2.0, 0.0, 5, 0.05, keep)]
+    text = caustics.table([(rows, truth)], 0.02, "caustics", ["caustics"])
+    mis_row = next(line for line in text.splitlines() if "| mis |" in line)
+    # One render's own error: sqrt(12 x 0.01 / 2 / 12) = 0.0707.
+    assert mis_row.startswith("| s (100%, caustics 0.0707) |")
+    assert mis_row.split("|")[-2].strip() == "16.00"  # (0.2 / 0.05)^2

@@ -15,6 +15,9 @@ and the scalars `spp` (per render), `seeds`, `seconds` (of each render).
 
     python tests/renderer/converged.py STEM...          # (re)make these scenes' references
     python tests/renderer/converged.py --spp 4096 STEM  # with another sample count than the table's
+    python tests/renderer/converged.py --integrator caustics --spp 131072 STEM
+        # a second, independent reference made by another integrator, kept apart in
+        # tests/renderer/converged/STEM.caustics.npz (the default integrator's file is left alone)
 
 The coverage test (tests/test_error_coverage.py) and the accuracy study (benchmarks/accuracy.py)
 read them through `load_reference` and measure with `true_error`.
@@ -86,12 +89,14 @@ def scene_file(stem: str) -> Path:
     raise KeyError(f"no scene named {stem!r}")
 
 
-def reference_path(stem: str) -> Path:
-    return CONVERGED_DIR / f"{stem}.npz"
+def reference_path(stem: str, integrator: str | None = None) -> Path:
+    """The file of a scene's reference: STEM.npz for the scene's own integrator, STEM.INTEGRATOR.npz
+    for one made with another (an independent estimator of the same image)."""
+    return CONVERGED_DIR / (f"{stem}.npz" if integrator is None else f"{stem}.{integrator}.npz")
 
 
-def load_reference(stem: str) -> Reference:
-    return read_reference(reference_path(stem))
+def load_reference(stem: str, integrator: str | None = None) -> Reference:
+    return read_reference(reference_path(stem, integrator))
 
 
 def true_error(image: np.ndarray, reference: Reference) -> float:
@@ -111,11 +116,16 @@ def small_graph(path: Path, settings: tuple[str, ...] = ()):
     return with_width(load(path, settings).graph, WIDTH)
 
 
-def render_reference(graph, spp: int) -> tuple[dict, list[float]]:
+def render_reference(graph, spp: int, integrator: str | None = None) -> tuple[dict, list[float]]:
     """The arrays of a reference file (see the module's docstring) for `graph`, from two renders
-    of `spp` samples per pixel with the seeds SEEDS, and the seconds each took."""
+    of `spp` samples per pixel with the seeds SEEDS (with `integrator` in place of the scene's own
+    where given), and the seconds each took."""
     from renderer.render import render
 
+    if integrator is not None:
+        from renderer.compile import with_integrator
+
+        graph = with_integrator(graph, integrator)
     films, seconds = [], []
     for seed in SEEDS:
         result = render(graph, samples=spp, seed=seed, kernel="general")
@@ -139,10 +149,10 @@ def read_reference(path: Path) -> Reference:
                          data["difference"].astype(np.float64), int(data["spp"]))
 
 
-def make_reference(path: Path, spp: int) -> tuple[Path, list[float]]:
-    arrays, seconds = render_reference(small_graph(path), spp)
+def make_reference(path: Path, spp: int, integrator: str | None = None) -> tuple[Path, list[float]]:
+    arrays, seconds = render_reference(small_graph(path), spp, integrator)
     CONVERGED_DIR.mkdir(exist_ok=True)
-    out = reference_path(path.stem)
+    out = reference_path(path.stem, integrator)
     np.savez_compressed(out, **arrays)
     return out, seconds
 
@@ -151,6 +161,9 @@ def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(description="(Re)make converged references of the named scenes.")
     parser.add_argument("stems", nargs="+", help="scene names, e.g. sky_spheres")
     parser.add_argument("--spp", type=int, default=0, help="samples per pixel of each render (default: the table's)")
+    parser.add_argument("--integrator", default=None,
+                        help="render with this integrator instead of the scene's own, into STEM.INTEGRATOR.npz "
+                             "(e.g. caustics: a second, independent reference)")
     args = parser.parse_args(argv)
     known = {p.stem: p for p in scene_files()}
     unknown = sorted(set(args.stems) - set(known))
@@ -160,8 +173,8 @@ def main(argv: list[str]) -> int:
     for stem in args.stems:
         spp = args.spp or SPP_BY_SCENE.get(stem, DEFAULT_SPP)
         started = time.perf_counter()
-        out, seconds = make_reference(known[stem], spp)
-        ref = load_reference(stem)
+        out, seconds = make_reference(known[stem], spp, args.integrator)
+        ref = load_reference(stem, args.integrator)
         print(f"{out.relative_to(ROOT)}: {ref.mean.shape[1]}x{ref.mean.shape[0]}, 2 x {spp} spp, "
               f"{seconds[0]:.1f} + {seconds[1]:.1f} s ({time.perf_counter() - started:.0f} s in all); "
               f"own error {ref.own_error():.4f} (from the spread {ref.own_error_from_spread():.4f})", flush=True)

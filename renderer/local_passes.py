@@ -129,16 +129,17 @@ class LocalPasses:
             notify(f"compiling the renderer's {chosen.tag!r} kernel: {compile_wait(chosen)}, once; cached in "
                    f"{kernel_cache_folder()}")
         t0 = time.perf_counter()
-        chosen_pass = kernel_set(chosen).render_pass
+        kernels = kernel_set(chosen)
+        chosen_pass = kernels.render_pass
         chosen_pass(self.flat, 1, 1, self.seed, 0, 0, self.depth, self.estimator, self.sampling, Film.empty(1, 1).sums,
                     self.row_rays[:1], self.row_bad[:1], 0, 1)
         if self.estimator == INTEGRATOR_CAUSTICS:
             # The photons' kernel too, before anything is timed (no sample asked: it only compiles or loads).
-            kernel_set(chosen).caustic_splats(self.flat, 1, 1, self.seed, 0, 0, self.depth)
+            kernels.caustic_splats(self.flat, 1, 1, self.seed, 0, 0, self.depth)
         spent = time.perf_counter() - t0
         mark_compiled(chosen)
         self.render_pass = chosen_pass
-        self.kernels = kernel_set(chosen)
+        self.kernels = kernels
         return KernelTime(spent, spent if compiling else 0.0)
 
     def prepare(self, notify=None):

@@ -157,7 +157,9 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
             # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
             # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
             tangent, _ = world_derivatives(S, prim, inst, n_tree)
-        dense = has_density(S.mat_i, mat, params)
+        # Whether the vertex has a part with a density: asked only where light sampling, guiding or the
+        # caustic split reads it (the books' path tracer never does).
+        dense = mis and has_density(S.mat_i, mat, params)
         # The guide's leaf at a surface vertex with a density (-1: none, the vertex is mis's).
         leaf = guide_leaf(S.guide_f, S.guide_i, p) if guided and dense and not volume else -1
         from_guide = leaf >= 0 and uniform(key, guide_dim(bounce, 0)) < GUIDE_SHARE

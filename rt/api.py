@@ -140,14 +140,19 @@ class Image:
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
-    - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
+    - `save(path)`: .png (8-bit, made with the display transform `display`), .pfm or .exr (linear
+      float32), as `rt render`.
+    - `display`: the PNG's display transform (renderer/display.py: gamma2, the books' and the
+      default, srgb, agx or aces): `rt.render(display=)`, else the scene's `image.display`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
 
-    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis"):
+    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis",
+                 display: str = "gamma2"):
         self.film = film
         self.stats = stats
         self.name = name
+        self.display = display
         self.integrator = integrator
         self._array: Optional["np.ndarray"] = None
         self._estimate: Optional["NoiseEstimate"] = None
@@ -212,31 +217,46 @@ class Image:
     def noise_map(self) -> "np.ndarray":
         return self.noise_estimate.error
 
-    def save(self, path: Union[str, Path], exposure: Optional[float] = None) -> Path:
-        """Write the image by the file's suffix: .png (exposure in stops scales it first), .pfm or
-        .exr (linear, unchanged). Written atomically; returns the path."""
+    def save(self, path: Union[str, Path], exposure: Optional[float] = None, display: Optional[str] = None) -> Path:
+        """Write the image by the file's suffix: .png (exposure in stops scales it first, then the
+        display transform `display`, by default the image's own, makes its 8-bit values; the PNG's
+        metadata names it), .pfm or .exr (linear, unchanged). Written atomically; returns the path."""
         from renderer.film import write_image
 
         path = Path(path)
         image = self.film.mean()
-        if exposure:
+        display = self._display(display)
+        if exposure or display != self.display:
             from .outputs import format_of
 
             found = format_of(path)
             if found is None or found.role != "image":
-                raise ValueError("exposure applies to a PNG only; .pfm and .exr keep the rendered radiance")
+                what = "exposure" if exposure else "display"
+                raise ValueError(f"{what} applies to a PNG only; .pfm and .exr keep the rendered radiance")
+        if exposure:
             image = image * 2.0 ** exposure
-        write_image(path, image)
+        write_image(path, image, display, {"rt:exposure": f"{exposure:g}"} if exposure else None)
         return path
 
-    def png_bytes(self, exposure: Optional[float] = None) -> bytes:
+    def png_bytes(self, exposure: Optional[float] = None, display: Optional[str] = None) -> bytes:
         """The 8-bit PNG `save` would write, as bytes."""
         from renderer.film import png_bytes
 
         image = self.film.mean()
+        display = self._display(display)
         if exposure:
             image = image * 2.0 ** exposure
-        return png_bytes(image)
+        return png_bytes(image, display, {"rt:exposure": f"{exposure:g}"} if exposure else None)
+
+    def _display(self, display: Optional[str]) -> str:
+        """`display`, checked (ValueError in one sentence for an unknown name), or the image's own."""
+        if display is None:
+            return self.display
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            raise ValueError(unknown_display(display))
+        return display
 
     def _repr_png_(self) -> bytes:
         return self.png_bytes()
@@ -391,6 +411,7 @@ def render(
     should_stop: Optional[Callable[[], bool]] = None,
     cluster: Any = None,
     allow_paths: Iterable[Union[str, Path]] = (),
+    display: Optional[str] = None,
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -407,6 +428,9 @@ def render(
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
     A Client is used as is and left open; a cluster started for "local" is closed at the end.
+
+    `display`: the display transform the image's PNG is made with (`Image.display`; "gamma2",
+    "srgb", "agx" or "aces"), overriding the scene's `image.display`; the radiance is not changed.
 
     Raises `rt.SceneError` (with `.diagnostics`) for an invalid scene and ValueError for an
     invalid option or a scene the renderer cannot use (an image that does not decode).
@@ -437,6 +461,11 @@ def render(
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
+    if display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            raise ValueError(unknown_display(display))
 
     overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
@@ -468,5 +497,6 @@ def render(
         if connection is not None:
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
-    return Image(result.film, result.stats, name, frame.integrator)
+    return Image(result.film, result.stats, name, frame.integrator,
+                 display if display is not None else graph.image.display)
 

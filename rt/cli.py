@@ -235,8 +235,15 @@ def render(
         "its PNG.",
     ),
     exposure: Optional[float] = typer.Option(
-        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its gamma and clamping (the --hdr image is not changed).",
+        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its display transform (--display) and clamping (the --hdr image is not changed).",
         metavar="STOPS",
+    ),
+    display: Optional[str] = typer.Option(
+        None, "--display", metavar="gamma2|srgb|agx|aces",
+        help="How the PNG shows the linear image (overrides the file's image.display): gamma2 (the books' square root, the "
+        "default), srgb (the sRGB curve), agx (a filmic curve: highlights roll off, bright colours go to white) or aces "
+        "(the ACES filmic transform, darker mid tones). Applied after --exposure; the PNG's metadata names it; --hdr and "
+        "the noise and samples maps are not changed.",
     ),
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
@@ -318,7 +325,7 @@ def render(
         time_budget=time_budget, noise=noise, noise_map=noise_map, samples_map=samples_map, adaptive=adaptive,
         save_state=save_state, resume=resume, explain=explain, dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
-        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
+        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths), display=display,
     )
     try:
         if len(scenes) == 1:
@@ -340,6 +347,10 @@ def watch(
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
     integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default), path, caustics or guided, as for rt render."),
+    display: Optional[str] = typer.Option(
+        None, "--display", metavar="gamma2|srgb|agx|aces", help="How the page shows the image (overrides the file's "
+        "image.display), as for rt render.",
+    ),
     allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
@@ -353,8 +364,14 @@ def watch(
     if integrator is not None and integrator not in INTEGRATORS:
         typer.echo(f"error: --integrator {integrator!r}: expected {integrator_choices()}", err=True)
         raise typer.Exit(2)
+    if display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            typer.echo(f"error: --display: {unknown_display(display)}", err=True)
+            raise typer.Exit(2)
     opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides),
-                        allow_paths=tuple(allow_paths))
+                        allow_paths=tuple(allow_paths), display=display)
     raise typer.Exit(serve(opts, host, port, main_say))
 
 

@@ -166,10 +166,13 @@ def rescue(film: "Film", key: Optional["RenderKey"], stem: str) -> list[Path]:
 
 
 def write_outputs(
-    opts: "RenderOptions", film: "Film", key: Optional["RenderKey"], fail: Callable[[str], Exception]
+    opts: "RenderOptions", film: "Film", key: Optional["RenderKey"], fail: Callable[[str], Exception],
+    display: str = "gamma2",
 ) -> "NoiseEstimate":
-    """Write every output of the render; on a failure, rescue the film and raise `fail(message)`."""
-    from renderer.film import estimate_noise, noise_map_image, write_image
+    """Write every output of the render; on a failure, rescue the film and raise `fail(message)`.
+    The image's PNG is made with the display transform `display` (renderer/display.py), after
+    --exposure; the noise and samples maps keep gamma 2, which their grey is made for."""
+    from renderer.film import NOISE_MAP_CONTENT, PNG_CONTENT_KEY, estimate_noise, noise_map_image, write_image
     from renderer.state import save_state
     from scenefmt.diagnostics import escape_control
     from scenefmt.files import describe_os_error
@@ -180,16 +183,19 @@ def write_outputs(
     if opts.save_state is not None:
         steps.append((opts.save_state, lambda: save_state(opts.save_state, film, key)))
     exposed = image if not opts.exposure else image * 2.0 ** opts.exposure  # the PNG only; --hdr stays as rendered
-    steps.append((opts.out, lambda: write_image(opts.out, exposed)))
+    shown = {"rt:exposure": f"{opts.exposure:g}"} if opts.exposure else None
+    steps.append((opts.out, lambda: write_image(opts.out, exposed, display, shown)))
     if opts.hdr is not None:
         steps.append((opts.hdr, lambda: write_image(opts.hdr, image)))
     if opts.noise_map is not None:
-        steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate))))
+        steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate), "gamma2",
+                                                          {PNG_CONTENT_KEY: NOISE_MAP_CONTENT})))
     if opts.samples_map is not None:
-        from renderer.sample_counts import sample_count_image
+        from renderer.sample_counts import SAMPLES_MAP_CONTENT, sample_count_image
 
         raw = format_of(opts.samples_map) is not None and format_of(opts.samples_map).role == "hdr"
-        steps.append((opts.samples_map, lambda: write_image(opts.samples_map, sample_count_image(film.counts, raw))))
+        steps.append((opts.samples_map, lambda: write_image(opts.samples_map, sample_count_image(film.counts, raw), "gamma2",
+                                                            {PNG_CONTENT_KEY: SAMPLES_MAP_CONTENT})))
     for path, step in steps:
         try:
             step()

@@ -49,6 +49,7 @@ class RenderOptions:
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
+    display: Optional[str] = None  # --display: the PNG's display transform (renderer/display.py); None: the scene's
 
     @property
     def from_stdin(self) -> bool:
@@ -78,6 +79,8 @@ class PreparedScene:
     # The models and parsed file, held until the render ends: freeing a generated scene's
     # millions of objects takes a second that the first sample need not wait for.
     loaded: Optional[object] = None
+    # The PNG's display transform: --display, else the scene's image.display.
+    display: str = "gamma2"
 
 
 def budget_text(text: str) -> str:
@@ -250,6 +253,11 @@ def prepare(opts: RenderOptions) -> PreparedScene:
                 raise fail(f"error: {name} {path}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
+    if opts.display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if opts.display not in DISPLAYS:
+            raise fail(f"error: --display: {unknown_display(opts.display)}")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
 
     problem = None if opts.dry_run else output_problem(opts)
@@ -308,7 +316,8 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
         package = package_scene(None if opts.from_stdin else str(opts.scene), reads, loaded, flat, opts.overrides, opts.syntax,
                                 opts.width, opts.integrator)
-    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package, loaded)
+    display = opts.display if opts.display is not None else graph.image.display
+    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package, loaded, display)
 
 
 def run(opts: RenderOptions, started: float) -> None:
@@ -488,7 +497,7 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
             step = "writing"
-            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail, scene.display)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
             if exc.first:

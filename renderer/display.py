@@ -22,8 +22,8 @@ becomes the other is a choice, made per render (`rt render --display NAME`, the 
 
 Why formulas rather than a colour library: each transform here is a few published lines of
 arithmetic on numpy arrays, with no dependency to install, where OpenColorIO or colour-science
-would add a package of tens to a hundred megabytes and a configuration file to every install for
-the same curves. The cost is that `agx` and `aces` are fits, not the reference transforms: Wrensch
+would add a large package (and for OpenColorIO a configuration to choose) to every install for
+the same curves (docs/display.md, "Why formulas"). The cost is that `agx` and `aces` are fits, not the reference transforms: Wrensch
 gives his polynomial's mean squared error against AgX's sigmoid as 3.7e-6; Hill's fit follows the
 RRT+ODT tone scale closely over the displayable range, with the hue adjustments of the reference
 RRT left out.

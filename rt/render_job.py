@@ -215,6 +215,21 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
+def samples_fingerprint(scene) -> str:
+    """The fingerprint a saved state is keyed by (--save-state, --resume): sha256 of the scene's
+    canonical JSON, leaving out `image.display`, which shapes only the PNG made from the samples,
+    so that a render saved under one display transform resumes under another. A scene that does
+    not set it has the fingerprint it had before display transforms existed."""
+    from renderer.state import scene_fingerprint
+    from scenefmt.writing import dumps
+
+    if "display" in scene.image.model_fields_set:
+        image = scene.image
+        kept = {name: getattr(image, name) for name in image.model_fields_set if name != "display"}
+        scene = scene.model_copy(update={"image": type(image).model_validate(kept)})
+    return scene_fingerprint(dumps(scene, "json"))
+
+
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -306,10 +321,7 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     fingerprint = None
     if opts.resume is not None or opts.save_state is not None:
         # The scene's canonical JSON, hashed: 25 ms for the final scene that other renders skip.
-        from renderer.state import scene_fingerprint
-        from scenefmt.writing import dumps
-
-        fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
+        fingerprint = samples_fingerprint(loaded.scene)
     package = None
     if opts.cluster is not None:
         from .cluster import package_scene
@@ -372,13 +384,12 @@ def render_key_of(opts: RenderOptions, frame, fingerprint: str):
 def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
     """Save `film` as a state to resume from: in --save-state, else (or if that fails) where
     outputs.rescue finds room. Where it went, as the end of an error line."""
-    from renderer.state import save_state, scene_fingerprint
+    from renderer.state import save_state
     from scenefmt.files import describe_os_error
-    from scenefmt.writing import dumps
 
     from .outputs import rescue
 
-    fingerprint = scene.fingerprint or scene_fingerprint(dumps(scene.loaded.scene, "json"))
+    fingerprint = scene.fingerprint or samples_fingerprint(scene.loaded.scene)
     key = render_key_of(opts, scene.frame, fingerprint)
     problem = ""
     if opts.save_state is not None:

@@ -284,3 +284,19 @@ def test_rt_render_takes_the_scene_display_and_the_api_overrides_it(tmp_path):
     assert rt.render(data, kernel="general", display="gamma2").display == "gamma2"
     with pytest.raises(ValueError, match="did you mean 'aces'"):
         rt.render(data, kernel="general", display="ace")
+
+
+def test_a_saved_state_resumes_under_another_display(tmp_path):
+    import rt
+    from renderer.state import scene_fingerprint
+    from rt.render_job import samples_fingerprint
+    from scenefmt.writing import dumps
+
+    base = {"version": 1, "image": {"width": 8, "aspect_ratio": "16:9", "seed": 2}, "background": [1, 1, 1], "shapes": []}
+    plain = rt.load(base).scene
+    assert samples_fingerprint(plain) == scene_fingerprint(dumps(plain, "json"))  # older states still resume
+    shown = rt.load({**base, "image": {**base["image"], "display": "agx"}}).scene
+    assert samples_fingerprint(shown) == samples_fingerprint(plain)
+    assert shown.image.display == "agx"  # the scene itself is not changed
+    wider = rt.load({**base, "image": {**base["image"], "width": 9, "display": "agx"}}).scene
+    assert samples_fingerprint(wider) != samples_fingerprint(plain)

@@ -65,7 +65,9 @@ def _summary_lines(loaded) -> list[str]:
         lines.append(f"  named: {defs}")
     lines.append(
         f"  image: {image.width}x{image.pixel_height}, {image.samples_per_pixel} spp, max depth {image.max_depth}, "
-        f"seed {image.seed}, integrator {image.integrator}; background {summary.background}"
+        f"seed {image.seed}, integrator {image.integrator}"
+        + (f", display {image.display}" if image.display != "gamma2" else "")  # the books' default goes unsaid
+        + f"; background {summary.background}"
     )
     if graph.memory is not None:
         from scenefmt.bounds import gib, memory_limit

@@ -300,3 +300,16 @@ def test_a_saved_state_resumes_under_another_display(tmp_path):
     assert shown.image.display == "agx"  # the scene itself is not changed
     wider = rt.load({**base, "image": {**base["image"], "width": 9, "display": "agx"}}).scene
     assert samples_fingerprint(wider) != samples_fingerprint(plain)
+
+
+def test_rt_validate_names_a_display_other_than_the_books():
+    from typer.testing import CliRunner
+
+    from rt.cli import app
+
+    scene = "version: 1\nimage: {width: 8, display: srgb}\nshapes: []\n"
+    done = CliRunner().invoke(app, ["validate", "-"], input=scene)
+    assert done.exit_code == 0
+    assert "seed 0, integrator mis, display srgb; background sky" in done.output
+    done = CliRunner().invoke(app, ["validate", "-"], input=scene.replace(", display: srgb", ""))
+    assert "integrator mis; background sky" in done.output

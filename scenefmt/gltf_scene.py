@@ -456,7 +456,9 @@ class _Materials:
         if isinstance(sp, dict):
             out["specular"] = _clamp01(as_float(sp.get("specularFactor"), f"{what}'s specularFactor", 1.0))
             colour = as_floats(sp.get("specularColorFactor"), 3, f"{what}'s specularColorFactor", (1.0, 1.0, 1.0))
-            out["specular_color"] = _vec(max(0.0, c) for c in colour)
+            if max(colour) > 1.0:
+                warn.add("specular colour factors above 1 are clamped to 1: rt's specular colour is a reflectance")
+            out["specular_color"] = _vec(_clamp01(c) for c in colour)
             if sp.get("specularTexture") is not None or sp.get("specularColorTexture") is not None:
                 warn.add("KHR_materials_specular's textures are ignored: its factors are used")
         cc = ext.get("KHR_materials_clearcoat")

@@ -190,9 +190,10 @@ def transform_steps(m: np.ndarray) -> list:
 
 
 def _singular(m: np.ndarray) -> bool:
+    # MatrixStep's test (det <= 1e-12 max|a|^3), on the matrix scaled to a largest entry of 1 (no overflow).
     a = m[:3, :3]
-    scale = max(1e-300, float(np.abs(a).max())) ** 3
-    return abs(float(np.linalg.det(a))) <= 1e-12 * scale
+    peak = float(np.abs(a).max())
+    return not peak > 0 or abs(float(np.linalg.det(a / peak))) <= 1e-12
 
 
 # --- meshes ---------------------------------------------------------------------------------
@@ -244,7 +245,8 @@ def read_primitive(doc: GltfDocument, mesh_index: int, p: int, prim, warn: _Warn
         warn.add("morph targets are ignored")
     if prim.indices is not None:
         corners = read_accessor(doc, prim.indices, f"{what} indices", ("SCALAR",))[:, 0]
-        if doc.gltf.accessors[prim.indices].componentType not in (5121, 5123, 5125):
+        acc = doc.gltf.accessors[prim.indices]
+        if acc.componentType not in (5121, 5123, 5125) or acc.normalized or corners.dtype.kind != "i":
             raise GltfProblem(f"{what}'s indices are not unsigned integers")
         if len(corners) and int(corners.max()) >= nv:
             raise GltfProblem(f"{what} has an index {int(corners.max()):,} past its {nv:,} vertices")
@@ -253,10 +255,30 @@ def read_primitive(doc: GltfDocument, mesh_index: int, p: int, prim, warn: _Warn
     faces = triangles_of(mode, corners)
     if mode == TRIANGLES and len(corners) % 3:
         warn.add("a triangle list's index count is not a multiple of 3: the last corners are dropped")
+    faces = _with_area(positions.astype(np.float32).astype(np.float64), faces, warn)
     if len(faces) == 0:
         warn.add("primitives with no triangles are skipped")
         return None
     return positions, faces, normals, uvs
+
+
+def _with_area(positions: np.ndarray, faces: np.ndarray, warn: _Warnings) -> np.ndarray:
+    """The triangles that have an area, by the test `meshfile` applies when it reads the PLY back
+    (on the float32 positions the PLY holds), so that a mesh of only zero-area triangles is
+    skipped here rather than written and refused by `rt validate`."""
+    from .meshfile import DEGENERATE
+
+    keep = np.ones(len(faces), bool)
+    step = 1 << 20
+    for start in range(0, len(faces), step):  # in chunks: a few hundred bytes of temporaries per triangle
+        f = faces[start:start + step]
+        a, b, c = positions[f[:, 0]], positions[f[:, 1]], positions[f[:, 2]]
+        e1, e2 = b - a, c - a
+        cross = np.linalg.norm(np.cross(e1, e2), axis=1)
+        keep[start:start + step] = cross > DEGENERATE * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    if not keep.all():
+        warn.add("triangles of zero area are dropped")
+    return faces[keep]
 
 
 # --- materials and textures -----------------------------------------------------------------

@@ -12,6 +12,7 @@ import struct
 import subprocess
 import sys
 import tracemalloc
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -456,3 +457,74 @@ def test_imported_scene_renders_as_the_same_scene_written_by_hand(tmp_path):
     # axis (and by float rounding), so the images agree to rounding.
     np.testing.assert_allclose(imported.mean(axis=(0, 1)), hand.mean(axis=(0, 1)), rtol=1e-6)
     np.testing.assert_allclose(imported, hand, atol=1e-6)
+
+
+def _rich_document(tmp_path: Path) -> tuple[dict, bytes]:
+    """The JSON and BIN chunk of a model that uses most of what rt import reads."""
+    b = Builder()
+    g = b.g
+    t = b.image_texture(png(np.full((2, 2, 3), 100)))
+    m = b.material(
+        pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorFactor=[0.5, 1, 1, 1], baseColorTexture=g.TextureInfo(index=t),
+                                                    metallicRoughnessTexture=g.TextureInfo(index=t)),
+        normalTexture=g.NormalMaterialTexture(index=t), emissiveFactor=[1, 0.5, 0], emissiveTexture=g.TextureInfo(index=t),
+        extensions={"KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatTexture": {"index": 0}},
+                    "KHR_materials_transmission": {"transmissionFactor": 0.5, "transmissionTexture": {"index": 0}}})
+    mesh = b.mesh(QUAD_POSITIONS, QUAD_INDICES, QUAD_NORMALS, QUAD_UVS, material=m)
+    child = b.node(root=False, mesh=mesh, translation=[1, 0, 0])
+    b.node(mesh=mesh, children=[child], rotation=[0, 0, 0, 1], scale=[1, 2, 1])
+    b.lights([{"type": "spot", "spot": {"innerConeAngle": 0.1, "outerConeAngle": 0.3}}, {"type": "point"}])
+    b.node(extensions={"KHR_lights_punctual": {"light": 0}})
+    b.gltf.cameras.append(g.Camera(type="perspective", perspective=g.Perspective(yfov=0.7, aspectRatio=1.2, znear=0.1)))
+    b.node(camera=0, translation=[0, 0, 4])
+    raw = b.save_glb(tmp_path / "rich.glb").read_bytes()
+    size = struct.unpack_from("<I", raw, 12)[0]
+    return json.loads(raw[20:20 + size]), raw[20 + size + 8:]
+
+
+def test_damaged_documents_give_a_scene_that_validates_or_one_error(tmp_path):
+    """Values of the wrong kind or range put anywhere in a document (a fixed-seed fuzz): the import
+    either writes a scene that `rt validate` accepts or raises GltfProblem, never anything else."""
+    import copy
+    import random
+
+    from scenefmt.diagnostics import SceneError
+
+    doc, blob = _rich_document(tmp_path)
+
+    def paths(x, at=()):
+        if at:
+            yield at
+        items = x.items() if isinstance(x, dict) else enumerate(x) if isinstance(x, list) else ()
+        for k, v in items:
+            yield from paths(v, at + (k,))
+
+    where = list(paths(doc))
+    values = [None, -1, 0, 1, 2**40, 1.5, -1e300, "x", [], {}, [1, 2], True, {"index": 9}, [0, 0, 0, 0]]
+    rng = random.Random(35)
+    outcomes = Counter()
+    for trial in range(60):
+        damaged = copy.deepcopy(doc)
+        for _ in range(rng.randint(1, 3)):
+            path = rng.choice(where)
+            try:
+                target = damaged
+                for k in path[:-1]:
+                    target = target[k]
+                target[path[-1]] = copy.deepcopy(rng.choice(values))
+            except (KeyError, IndexError, TypeError):
+                continue  # an earlier change removed the place
+        model = tmp_path / f"d{trial}.glb"
+        model.write_bytes(_glb(damaged, blob))
+        try:
+            import_gltf(model, tmp_path / f"d{trial}.yaml")
+        except GltfProblem as exc:
+            assert "\n" not in str(exc)
+            outcomes["refused"] += 1
+            continue
+        try:
+            validated(tmp_path / f"d{trial}.yaml")
+        except SceneError as exc:
+            pytest.fail(f"trial {trial}: the imported scene does not validate: {exc}")
+        outcomes["imported"] += 1
+    assert outcomes["refused"] > 5 and outcomes["imported"] > 5, outcomes

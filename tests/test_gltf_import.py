@@ -528,3 +528,29 @@ def test_damaged_documents_give_a_scene_that_validates_or_one_error(tmp_path):
             pytest.fail(f"trial {trial}: the imported scene does not validate: {exc}")
         outcomes["imported"] += 1
     assert outcomes["refused"] > 5 and outcomes["imported"] > 5, outcomes
+
+
+def test_image_files_beside_a_gltf_are_copied_as_they_are(tmp_path):
+    from PIL import Image
+
+    b = Builder()
+    g = b.g
+    buf = __import__("io").BytesIO()
+    Image.fromarray(np.full((4, 4, 3), 90, np.uint8)).save(buf, format="JPEG")
+    jpeg = buf.getvalue()
+    (tmp_path / "maps").mkdir()
+    (tmp_path / "maps" / "wood grain.jpg").write_bytes(jpeg)
+    b.gltf.images.append(g.Image(uri="maps/wood%20grain.jpg", name="wood"))
+    b.gltf.textures.append(g.Texture(source=0))
+    mat = b.material(pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorTexture=g.TextureInfo(index=0)),
+                     extensions={"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_volume": {}})
+    b.node(mesh=b.mesh(QUAD_POSITIONS, QUAD_INDICES, uvs=QUAD_UVS, material=mat))
+    model = b.save_gltf(tmp_path / "m.gltf")
+    import_gltf(model, tmp_path / "m.yaml")
+    data = scene_of(tmp_path / "m.yaml")
+    (texture,) = data["textures"].values()
+    assert texture == {"type": "image", "file": "m_assets/wood.jpg", "colorspace": "srgb"}
+    assert (tmp_path / texture["file"]).read_bytes() == jpeg
+    (material,) = data["materials"].values()
+    assert material["transmission"] == 1 and "thin_walled" not in material  # a solid: KHR_materials_volume
+    validated(tmp_path / "m.yaml")

@@ -554,3 +554,26 @@ def test_image_files_beside_a_gltf_are_copied_as_they_are(tmp_path):
     (material,) = data["materials"].values()
     assert material["transmission"] == 1 and "thin_walled" not in material  # a solid: KHR_materials_volume
     validated(tmp_path / "m.yaml")
+
+
+@pytest.mark.slow
+def test_an_imported_texture_is_upright_in_the_render(tmp_path):
+    """glTF's texture origin is the image's top-left: a quad whose top corners have v = 0 shows the
+    image's top row at its top. The image is red above, blue below; so must the render be."""
+    import rt
+
+    image = np.zeros((8, 8, 3), np.uint8)
+    image[:4, :, 0] = 255  # top half red
+    image[4:, :, 2] = 255  # bottom half blue
+    b = Builder()
+    g = b.g
+    t = b.image_texture(png(image))
+    mat = b.material(pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorTexture=g.TextureInfo(index=t), metallicFactor=0.0,
+                                                                  roughnessFactor=1.0), emissiveFactor=[0, 0, 0])
+    b.node(mesh=b.mesh(QUAD_POSITIONS, QUAD_INDICES, uvs=QUAD_UVS, material=mat))
+    b.gltf.cameras.append(g.Camera(type="perspective", perspective=g.Perspective(yfov=math.radians(30), znear=0.1)))
+    b.node(camera=0, translation=[0, 0, 3])
+    import_gltf(b.save_glb(tmp_path / "m.glb"), tmp_path / "m.yaml", width=16, samples=4)
+    img = np.asarray(rt.render(tmp_path / "m.yaml", kernel="general", seed=1).array)
+    top, bottom = img[2:6].mean(axis=(0, 1)), img[10:14].mean(axis=(0, 1))
+    assert top[0] > 5 * top[2] and bottom[2] > 5 * bottom[0], (top, bottom)

@@ -352,6 +352,7 @@ def read_accessor(doc: GltfDocument, index: Any, what: str, types: tuple = ("SCA
     end = start + (count - 1) * stride + element
     if end > length:
         raise GltfProblem(f"{awhat} needs bytes {start:,} to {end:,} of its buffer view, which has {length:,}")
+    _check_memory(count * n * 8, f"reading {awhat}")  # the float64 or int64 array made below
     raw = np.ndarray((count, n), dtype=dtype, buffer=data, offset=offset + start, strides=(stride, dtype.itemsize))
     if dtype.kind == "f":
         out = raw.astype(np.float64)

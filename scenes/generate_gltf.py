@@ -86,7 +86,8 @@ class Builder:
         from PIL import Image
 
         out = io.BytesIO()
-        Image.fromarray(pixels, "RGB").save(out, format="PNG", optimize=False)
+        # Stored, not deflated: the same bytes from any Pillow and zlib, so --check holds everywhere.
+        Image.fromarray(pixels, "RGB").save(out, format="PNG", compress_level=0)
         view = self._view(out.getvalue())
         self.doc.images.append(self.g.Image(bufferView=view, mimeType="image/png"))
         self.doc.samplers.append(self.g.Sampler(magFilter=9729, minFilter=9729))

@@ -89,13 +89,18 @@ class _Warnings:
 
 
 def _clean(x: float) -> float:
-    """A float our format takes: 0 for magnitudes under 1e-40 (the format refuses below 1e-50), -0 as 0."""
-    x = float(x)
+    """A float our format takes, as a reader wants it: 12 significant digits (0.39999999999999997,
+    float rounding of a composed transform, reads 0.4), 0 for magnitudes under 1e-40 (the format
+    refuses below 1e-50), -0 as 0."""
+    x = float(f"{float(x):.12g}")
     return 0.0 if abs(x) < 1e-40 else x + 0.0
 
 
 def _vec(v) -> list:
-    return [_clean(x) for x in v]
+    """A vector or a matrix row of clean floats; entries under 1e-12 of its largest are rounding, made 0."""
+    v = [_clean(x) for x in v]
+    peak = max((abs(x) for x in v), default=0.0)
+    return [0.0 if abs(x) < 1e-12 * peak else x for x in v]
 
 
 class _Names:
@@ -624,7 +629,8 @@ def framing_camera(low: np.ndarray, high: np.ndarray, vfov: float = 40.0) -> dic
 def plan_import(doc: GltfDocument, options: ImportOptions) -> ImportPlan:
     """The scene for a glTF document (see the module's docstring); raises GltfProblem."""
     warn = _Warnings()
-    names = _Names(options.prefix)
+    names = _Names(options.prefix)  # materials and textures
+    group_names = _Names(options.prefix)  # groups: a section of their own, so a mesh may share its material's name
     gltf = doc.gltf
     for key in (gltf.extensionsRequired or []):
         if key not in KNOWN_EXTENSIONS:
@@ -705,7 +711,7 @@ def plan_import(doc: GltfDocument, options: ImportOptions) -> ImportPlan:
             for shape in members:
                 shapes.append({**shape, "transform": steps} if steps else shape)
         else:
-            group = names.make(mesh_name, f"mesh{mi}")
+            group = group_names.make(mesh_name, f"mesh{mi}")
             groups[group] = {"shapes": members}
             for m in placements[mi]:
                 inst = {"type": "instance", "group": group}

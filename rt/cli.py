@@ -396,7 +396,8 @@ def import_model(
     force: bool = typer.Option(False, "--force", help="Replace the scene file and its assets folder if they exist."),
 ) -> None:
     """Import a glTF 2.0 model as a scene file: meshes as PLY files, materials as principled materials,
-    textures as image files, node transforms and instancing, cameras and KHR_lights_punctual lights."""
+    textures as image files, node transforms and instancing, cameras and KHR_lights_punctual lights.
+    Needs the gltf extra: pip install '.[gltf]' in rt's folder (docs/import.md)."""
     from scenefmt.diagnostics import escape_control
     from scenefmt.gltf_read import GltfProblem
 

@@ -470,8 +470,11 @@ class _Materials:
                     out["transmission"] = {"texture": t, "channel": "r", "scale": factor}
             if factor > 0 and not isinstance(ext.get("KHR_materials_volume"), dict):
                 out["thin_walled"] = True
-        if isinstance(ext.get("KHR_materials_volume"), dict):
-            warn.add("KHR_materials_volume's thickness and attenuation are ignored: transmissive solids are clear")
+        volume = ext.get("KHR_materials_volume")
+        # Its thickness only stands in for geometry a rasteriser lacks: a path tracer refracts through
+        # the mesh itself, so only an attenuation (a tint with distance) is lost, and only that is said.
+        if isinstance(volume, dict) and ("attenuationColor" in volume or "attenuationDistance" in volume):
+            warn.add("KHR_materials_volume's attenuation is ignored: transmissive solids are clear")
         ior = ext.get("KHR_materials_ior")
         if isinstance(ior, dict):
             value = as_float(ior.get("ior"), f"{what}'s ior", 1.5)

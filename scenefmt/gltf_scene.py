@@ -610,6 +610,11 @@ def camera_of(doc: GltfDocument, index: Any, m: np.ndarray, target: np.ndarray) 
     eye = _point(m)
     forward = _direction(m, (0.0, 0.0, -1.0))  # glTF cameras look down their node's -Z, +Y up
     up = _direction(m, (0.0, 1.0, 0.0))
+    # A camera that does not roll (its right-hand axis level) is written with the plain up of
+    # +Y, which gives the same frame and reads as what it is; only a rolled camera keeps its own.
+    right = np.cross(forward, up)
+    if abs(forward[1]) < 0.999 and abs(right[1]) < 1e-9 * max(1.0, float(np.linalg.norm(right))) and up[1] > 0:
+        up = np.array([0.0, 1.0, 0.0])
     # look_at on the view axis, as far as the model's centre along it (1 when that is behind).
     reach = float(np.dot(target - eye, forward))
     look_at = eye + forward * (reach if reach > 1e-9 else 1.0)
@@ -727,6 +732,7 @@ def plan_import(doc: GltfDocument, options: ImportOptions) -> ImportPlan:
 
     data: dict = {"version": 1}
     if not options.part:
+        data["description"] = f"Imported by rt import from {options.source_name} (glTF 2.0)."
         aspect = None
         target = (low + high) / 2
         if camera_node is not None:

@@ -431,7 +431,9 @@ class Mesh(SurfaceBase):
     `smooth`, normals are interpolated across each triangle from the file's vertex normals (or,
     where it has none, from the average of the faces around each vertex). Texture coordinates
     from the file drive image textures. Each face's front is on the side its corners turn
-    counter-clockwise around.
+    counter-clockwise around. An OBJ file's own materials (its `.mtl` library, `usemtl` per
+    face) are used when `material` is left out, each entry as the nearest of ours
+    (docs/meshes.md, "Materials from a .mtl file").
 
     ```yaml
     type: mesh

@@ -67,10 +67,14 @@ def material_parts(resolver, node, path: tuple) -> Optional[list]:
         found = entries.get(material) if material is not None else None
         if found is None:
             material_node = _default(resolver, where, name, mesh, material, len(part.faces))
+            source = "no entry"
         else:
             material_node = _library_material(resolver, where, name, found)
             if material_node is None:
                 return None
+            source = f"from {quote_file(found[2])}"
+        shown = "no usemtl" if material is None else f"usemtl {quote_key(material)}"
+        part.material_note = f"{shown}: {material_node.model.type} ({source})"
         out.append(replace(node, material=material_node, mesh=part))
     return out
 
@@ -96,8 +100,7 @@ def _library_material(resolver, where: tuple, name: str, found: tuple):
         try:
             locate_named_file("image file", ref.file, folder)
         except NamedFileProblem as exc:
-            failed.append(f"material library {quote_file(library)} line {ref.line}: {key} names an "
-                          f"{hide_name(str(exc), ref.file)}")
+            failed.append(f"material library {quote_file(library)} line {ref.line}: {key}: {hide_name(str(exc), ref.file)}")
             return None
         return os.path.abspath(folder / ref.file)  # an absolute name: the image is then checked as any other
 

@@ -17,6 +17,7 @@ the face list length declared it reads 10^6 binary triangles in 0.05 s.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import warnings
 from dataclasses import dataclass
@@ -76,6 +77,7 @@ class MeshData:
     material_names: tuple = ()  # the names `usemtl` gives, in the order first used
     face_material: Optional[np.ndarray] = None  # (T,) int32 per triangle: its `usemtl` in material_names, -1 before any
     extent_and_size: Optional[tuple] = None  # (largest coordinate, least triangle size), measured once by scenefmt.bounds
+    material_note: Optional[str] = None  # a part of an OBJ cut by material: which, for `rt validate` ("usemtl 'red': plastic")
 
 
 def read_mesh(path, drop_degenerate: bool = True) -> MeshData:
@@ -732,7 +734,8 @@ def split_by_material(mesh: MeshData, smooth: bool = False) -> list:
     of the whole mesh, so that shading stays smooth across the seams between materials."""
     labels = mesh.face_material
     if labels is None or len(labels) == 0 or labels.min() == labels.max():
-        return [(-1 if labels is None or len(labels) == 0 else int(labels[0]), mesh)]
+        # A copy of the record (the arrays shared): the part is annotated, the mesh read stays as read.
+        return [(-1 if labels is None or len(labels) == 0 else int(labels[0]), dataclasses.replace(mesh))]
     normals = mesh.normals
     if smooth and normals is None:
         normals = _area_weighted_normals(mesh.vertices, mesh.faces)
@@ -770,6 +773,8 @@ def describe(mesh: MeshData) -> str:
         text += f" from {mesh.polygons:,} faces"
     if extras:
         text += " with " + " and ".join(extras)
+    if mesh.material_note:
+        text += f"; {mesh.material_note}"
     return text
 
 

@@ -222,9 +222,14 @@ def test_libraries_and_maps_resolve_inside_the_allowed_folders(tmp_path):
     found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=None))
     assert found == [f"mesh file 'two.obj' line 1: material library 'two.mtl' not found (looked for {tmp_path / 'two.mtl'})"]
     found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=MTL + b"map_Kd /etc/passwd\n"))
-    assert found == ["mesh file 'two.obj': material library 'two.mtl' line 8: map_Kd names an image file '/etc/passwd' is "
-                     f"outside the folders this scene may read from ({tmp_path}); to read it, allow its folder with "
-                     "--allow-path DIR (allow_paths=[...] in Python)"] or "outside" in found[0]
+    assert found == ["mesh file 'two.obj': material library 'two.mtl' line 8: map_Kd: image file '/etc/passwd' is "
+                     f"outside the folders this scene may read files from ({tmp_path}); to read it, allow its folder with "
+                     "--allow-path DIR (allow_paths=[...] in Python)"]
+    found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=MTL + b"map_Kd ../x\x1b[2Jy.png\n"))
+    assert len(found) == 1 and "\x1b" not in found[0] and "map_Kd: image file (a name of 13 characters, not shown) is outside" in found[0]
+    found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=MTL + b"map_Kd missing.png\n"))
+    assert found == ["mesh file 'two.obj': material library 'two.mtl' line 8: map_Kd: image file 'missing.png' not found "
+                     f"(looked for {tmp_path / 'missing.png'})"]
     found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=b"newmtl red\nKd 1 q 1\n"))
     assert found == ["mesh file 'two.obj' line 1: material library 'two.mtl' line 2: Kd expects numbers: 'q' is not one"]
 
@@ -258,12 +263,20 @@ def test_rt_validate_shows_the_warnings_in_a_fresh_process(tmp_path):
                             timeout=120)
     assert result.returncode == 0, result.stderr
     assert "s.yaml: valid" in result.stdout and "shapes: 3 (2 mesh, 1 sphere)" in result.stdout
+    assert "mesh at shapes[0]: 4 vertices, 2 triangles; usemtl 'red': lambertian (from 'two.mtl')" in result.stdout
+    assert "mesh at shapes[0]: 4 vertices, 2 triangles; usemtl 'blue': plastic (from 'two.mtl')" in result.stdout
     assert ("warning: shapes[0].file: material library 'two.mtl' line 3: Ka (ambient colour: a path tracer has no ambient "
             "term) has no equivalent and is dropped") in result.stderr
     assert "Traceback" not in result.stderr
-    (tmp_path / "two.mtl").write_bytes(b"\x00" * 64)
-    result = subprocess.run([sys.executable, "-m", "rt", "validate", "s.yaml"], cwd=tmp_path, capture_output=True, text=True,
-                            timeout=120)
-    assert result.returncode == 1 and "Traceback" not in result.stderr
+
+
+def test_rt_validate_says_a_binary_library_is_not_one(tmp_path):
+    from typer.testing import CliRunner
+
+    from rt.cli import app
+
+    (tmp_path / "s.yaml").write_text(scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=b"\x00" * 64))
+    result = CliRunner().invoke(app, ["validate", str(tmp_path / "s.yaml")])
+    assert result.exit_code == 1 and (result.exception is None or isinstance(result.exception, SystemExit))
     assert ("error: shapes[0].file: mesh file 'two.obj' line 1: material library 'two.mtl' not a material library text file: "
             "byte 1 is a NUL byte") in result.stderr

@@ -453,4 +453,7 @@ def hide_name(message: str, name: str) -> str:
     shown = quote_file(name)
     for form in (repr(name), f"'{name}'"):
         message = message.replace(form, shown)
-    return message if shown.startswith("'") else message.replace(name, "(the name)")
+    if shown.startswith("'"):
+        return message
+    # Where it was looked for holds the name too, resolved: left out with it.
+    return message.split(" (looked for ", 1)[0].replace(name, "(the name)")

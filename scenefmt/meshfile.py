@@ -743,10 +743,14 @@ def split_by_material(mesh: MeshData, smooth: bool = False) -> list:
     sorted_labels = labels[order]
     cuts = np.flatnonzero(np.diff(sorted_labels)) + 1
     parts = []
+    used_mark = np.zeros(len(mesh.vertices), bool)
     for rows in np.split(order, cuts):
         faces = mesh.faces[rows]
-        used, renumbered = np.unique(faces, return_inverse=True)
-        part = MeshData(mesh.vertices[used], renumbered.reshape(-1, 3).astype(np.int64),
+        used_mark[:] = False
+        used_mark[faces.reshape(-1)] = True
+        used = np.flatnonzero(used_mark)  # in file order; a vertex's new number is its place here
+        renumber = np.cumsum(used_mark, dtype=np.int64) - 1
+        part = MeshData(mesh.vertices[used], renumber[faces],
                         None if normals is None else normals[used], None if mesh.uvs is None else mesh.uvs[used],
                         polygons=len(rows))
         parts.append((int(labels[rows[0]]), part))

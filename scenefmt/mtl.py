@@ -257,7 +257,10 @@ def _map(words: list, key: str, line: int) -> MapRef:
         values = []
         while k < len(words) and len(values) < most:
             try:
-                values.append(float(words[k]))
+                value = float(words[k])
+                if not math.isfinite(value):
+                    raise MtlProblem(f"{key}: option {option} has a NaN or infinite value", line)
+                values.append(value)
             except ValueError:
                 if option in ("-blendu", "-blendv", "-clamp", "-imfchan", "-type", "-cc"):
                     values.append(words[k].decode("ascii", "replace"))  # on/off, a channel, a word

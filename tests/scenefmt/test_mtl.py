@@ -111,6 +111,7 @@ def test_the_phong_exponent_conversion_is_bounded():
     (b"newmtl " + b"x" * 2000 + b"\n", "line 1: a material name of 2,000 characters, more than the 1,024 allowed"),
     (b"newmtl a\nmap_Kd -zz 1 a.png\n", "line 2: map_Kd: unknown option '-zz'"),
     (b"newmtl a\nmap_Kd -s 1\n", "line 2: map_Kd names no file"),
+    (b"newmtl a\nbump -bm nan b.png\n", "line 2: bump: option -bm has a NaN or infinite value"),
     (b"newmtl a\n\x00\x01binary", "not a material library text file: byte 10 is a NUL byte"),
 ])
 def test_a_malformed_library_is_a_clear_error_naming_its_line(text, message):
@@ -280,3 +281,35 @@ def test_rt_validate_says_a_binary_library_is_not_one(tmp_path):
     assert result.exit_code == 1 and (result.exception is None or isinstance(result.exception, SystemExit))
     assert ("error: shapes[0].file: mesh file 'two.obj' line 1: material library 'two.mtl' not a material library text file: "
             "byte 1 is a NUL byte") in result.stderr
+
+
+def test_mangled_libraries_give_a_material_or_a_clear_error_never_anything_else():
+    import random
+
+    rng = random.Random(35)
+    base = MTL + (b"newmtl c\nKd 0.5 0.5 0.5\nKs 1 1 1\nNs 10\nd 0.5\nNi 1.3\nmap_Kd -s 1 1 a.png\nmap_bump -bm 0.1 b.png\n"
+                  b"newmtl d\nPr 0.5\nPm 1\nKe 1 2 3\nillum 7\nnorm n.png\n")
+    words = [b"Kd", b"Ks", b"Ke", b"Ns", b"Ni", b"d", b"Tr", b"illum", b"Pr", b"Pm", b"map_Kd", b"bump", b"-bm", b"-s", b"nan",
+             b"1e999", b"-1", b"2", b"0", b"newmtl", b"\xff\xfe", b"\\", b"#", b"x" * 300]
+    for _ in range(400):
+        lines = base.split(b"\n")
+        for _ in range(rng.randint(1, 4)):
+            k = rng.randrange(len(lines))
+            action = rng.random()
+            if action < 0.4:
+                lines[k] = b" ".join(rng.choice(words) for _ in range(rng.randint(1, 5)))
+            elif action < 0.7:
+                line = bytearray(lines[k] or b" ")
+                line[rng.randrange(len(line))] = rng.randrange(1, 256)
+                lines[k] = bytes(line)
+            else:
+                lines.insert(k, rng.choice(lines))
+        try:
+            library = parse_mtl(b"\n".join(lines))
+        except MtlProblem as exc:
+            assert exc.line is None or 1 <= exc.line <= len(lines)
+            continue
+        for entry in library.materials.values():
+            model, warnings = material_of(entry, lambda key, ref: "/abs/x.png")
+            assert model.type in ("lambertian", "plastic", "metal", "dielectric", "diffuse_light", "principled")
+            assert all(isinstance(line, int) and isinstance(text, str) for line, text in warnings)

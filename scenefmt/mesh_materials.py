@@ -95,6 +95,7 @@ def _library_material(resolver, where: tuple, name: str, found: tuple):
     if (library_key, entry.name) in made:
         return made[(library_key, entry.name)]
     failed = []
+    named: dict = {}  # the absolute name given to each image texture -> the name the library wrote
 
     def map_file(key: str, ref) -> Optional[str]:
         try:
@@ -102,7 +103,9 @@ def _library_material(resolver, where: tuple, name: str, found: tuple):
         except NamedFileProblem as exc:
             failed.append(f"material library {quote_file(library)} line {ref.line}: {key}: {hide_name(str(exc), ref.file)}")
             return None
-        return os.path.abspath(folder / ref.file)  # an absolute name: the image is then checked as any other
+        absolute = os.path.abspath(folder / ref.file)  # an absolute name: the image is then checked as any other
+        named[absolute] = ref.file
+        return absolute
 
     try:
         model, warnings = material_of(entry, map_file)
@@ -117,7 +120,16 @@ def _library_material(resolver, where: tuple, name: str, found: tuple):
     for at, message in warnings:
         resolver.mesh_warnings.append(resolver.warn(
             where, f"material library {quote_file(library)} line {at}: material {quote_key(entry.name)}: {message}"))
+    first = len(resolver.errors)
     node = resolver.material(model, None, where)
+    # What the material's own checks found (an image that does not decode, an emission too
+    # bright) is said of the library's entry, not of a key path that the scene file never wrote.
+    for k in range(first, len(resolver.errors)):
+        message = resolver.errors[k].message
+        for absolute, written in named.items():  # the image by the name the library gave it
+            message = message.replace(f"'{absolute}'", quote_file(written))
+        resolver.errors[k] = resolver.diagnostic(where, f"{name}: material library {quote_file(library)} line {entry.line}: "
+                                                        f"material {quote_key(entry.name)}: {message}")
     made[(library_key, entry.name)] = node
     return node
 

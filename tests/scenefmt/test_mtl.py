@@ -313,3 +313,15 @@ def test_mangled_libraries_give_a_material_or_a_clear_error_never_anything_else(
             model, warnings = material_of(entry, lambda key, ref: "/abs/x.png")
             assert model.type in ("lambertian", "plastic", "metal", "dielectric", "diffuse_light", "principled")
             assert all(isinstance(line, int) and isinstance(text, str) for line, text in warnings)
+
+
+def test_a_materials_own_checks_are_said_of_its_library_entry(tmp_path):
+    (tmp_path / "not_an_image.png").write_bytes(b"hello")
+    library = b"newmtl red\nKe 1e13 1 1\nnewmtl blue\nKd 0.1 0.1 0.8\nmap_Kd not_an_image.png\n"
+    found = errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=library))
+    assert found == [
+        "mesh file 'two.obj': material library 'two.mtl' line 1: material 'red': an emitted radiance must be at most 1e+12 "
+        "per channel, found 1e+13",
+        "mesh file 'two.obj': material library 'two.mtl' line 3: material 'blue': image file 'not_an_image.png' is not a "
+        "readable image (not a format Pillow can identify)",
+    ]

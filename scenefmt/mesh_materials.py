@@ -23,7 +23,7 @@ from .diagnostics import quote_key
 from .files import FileProblem
 from .materials import Lambertian
 from .meshfile import split_by_material
-from .mtl import DEFAULT_ALBEDO, MtlProblem, hide_name, material_of, quote_file, read_mtl
+from .mtl import DEFAULT_ALBEDO, MAX_LIBRARIES, MAX_OBJ_MATERIALS, MtlProblem, hide_name, material_of, quote_file, read_mtl
 from .named_files import NamedFileProblem, locate_named_file
 
 
@@ -35,6 +35,13 @@ def material_parts(resolver, node, path: tuple) -> Optional[list]:
     name = f"mesh file '{model.file}'"
     if not mesh.mtllibs:
         resolver.error(path, f"{name} names no material library (mtllib), so the shape needs a `material`")
+        return None
+    if len(mesh.mtllibs) > MAX_LIBRARIES:
+        resolver.error(where, f"{name} names {len(mesh.mtllibs):,} material libraries, more than the {MAX_LIBRARIES} allowed")
+        return None
+    if len(mesh.material_names) > MAX_OBJ_MATERIALS:
+        resolver.error(where, f"{name} uses {len(mesh.material_names):,} materials (usemtl names), more than the "
+                              f"{MAX_OBJ_MATERIALS:,} allowed: each becomes a mesh of its own")
         return None
     base = resolver.doc.base_dir_of(where) if resolver.doc is not None else Path.cwd()
     obj_folder = (Path(base) / model.file).parent

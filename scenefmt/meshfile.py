@@ -746,11 +746,18 @@ def split_by_material(mesh: MeshData, smooth: bool = False) -> list:
     used_mark = np.zeros(len(mesh.vertices), bool)
     for rows in np.split(order, cuts):
         faces = mesh.faces[rows]
-        used_mark[:] = False
-        used_mark[faces.reshape(-1)] = True
-        used = np.flatnonzero(used_mark)  # in file order; a vertex's new number is its place here
-        renumber = np.cumsum(used_mark, dtype=np.int64) - 1
-        part = MeshData(mesh.vertices[used], renumber[faces],
+        corners = faces.reshape(-1)
+        # The vertices used, in file order; a vertex's new number is its place among them. A part
+        # much smaller than the mesh sorts its corners (its own size); a large one marks them and
+        # counts (the mesh's size, without a sort): the same numbers either way.
+        if 8 * len(corners) < len(mesh.vertices):
+            used, renumber = np.unique(corners, return_inverse=True)
+        else:
+            used_mark[corners] = True
+            used = np.flatnonzero(used_mark)
+            renumber = (np.cumsum(used_mark, dtype=np.int64) - 1)[corners]
+            used_mark[used] = False
+        part = MeshData(mesh.vertices[used], renumber.reshape(-1, 3).astype(np.int64),
                         None if normals is None else normals[used], None if mesh.uvs is None else mesh.uvs[used],
                         polygons=len(rows))
         parts.append((int(labels[rows[0]]), part))

@@ -30,6 +30,10 @@ from .files import FileProblem, read_regular_file
 MAX_MTL_BYTES = 8 << 20
 MAX_MTL_MATERIALS = 65_536
 MAX_NAME_CHARS = 1024
+# Bounds on an OBJ's use of libraries: each library is a file to find and read, each material a
+# mesh of its own (a tree, a node); real assets name one library and up to some hundreds.
+MAX_LIBRARIES = 64
+MAX_OBJ_MATERIALS = 10_000
 # The material of faces whose `usemtl` names no entry of the library (or that come before any):
 # the light grey most OBJ viewers draw them in.
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)

@@ -325,3 +325,25 @@ def test_a_materials_own_checks_are_said_of_its_library_entry(tmp_path):
         "mesh file 'two.obj': material library 'two.mtl' line 3: material 'blue': image file 'not_an_image.png' is not a "
         "readable image (not a format Pillow can identify)",
     ]
+
+
+def test_an_obj_is_bounded_in_libraries_and_materials(tmp_path, monkeypatch):
+    monkeypatch.setattr("scenefmt.mesh_materials.MAX_OBJ_MATERIALS", 1)
+    assert errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n")) == [
+        "mesh file 'two.obj' uses 2 materials (usemtl names), more than the 1 allowed: each becomes a mesh of its own"]
+    many = b"mtllib " + b" ".join(b"m%d.mtl" % k for k in range(65)) + b"\n"
+    assert errors(tmp_path, scene(tmp_path, "  - {type: mesh, file: two.obj}\n", obj=many + OBJ)) == [
+        "mesh file 'two.obj' names 66 material libraries, more than the 64 allowed"]
+
+
+def test_both_ways_of_renumbering_a_part_give_the_numbers_of_a_sort():
+    from scenefmt import meshgen
+    from scenefmt.meshfile import MeshData
+
+    vertices, faces = meshgen.icosphere(4)
+    labels = np.zeros(len(faces), np.int32)
+    labels[[3, 17, 40]] = 1  # a small part (sorted) beside a large one (marked and counted)
+    for label, part in split_by_material(MeshData(vertices, faces, face_material=labels)):
+        used, renumbered = np.unique(faces[labels == label], return_inverse=True)
+        assert np.array_equal(part.vertices, vertices[used]) and np.array_equal(part.faces, renumbered.reshape(-1, 3))
+    assert 8 * 9 < len(vertices) < 8 * 3 * (len(faces) - 3)  # so both ways ran

@@ -347,3 +347,16 @@ def test_both_ways_of_renumbering_a_part_give_the_numbers_of_a_sort():
         used, renumbered = np.unique(faces[labels == label], return_inverse=True)
         assert np.array_equal(part.vertices, vertices[used]) and np.array_equal(part.faces, renumbered.reshape(-1, 3))
     assert 8 * 9 < len(vertices) < 8 * 3 * (len(faces) - 3)  # so both ways ran
+
+
+def test_the_library_and_its_maps_are_files_the_scene_reads(tmp_path):
+    """What `rt watch` polls and a cluster client sends: the library and its maps are recorded."""
+    from PIL import Image
+
+    from scenefmt.files import recording_reads
+
+    Image.new("RGB", (2, 2)).save(tmp_path / "red.png")
+    text = scene(tmp_path, "  - {type: mesh, file: two.obj}\n", library=MTL + b"map_Kd red.png\n")
+    with recording_reads() as reads:
+        load(tmp_path, text)
+    assert str(tmp_path / "two.mtl") in reads and str(tmp_path / "red.png") in reads

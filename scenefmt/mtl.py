@@ -135,7 +135,7 @@ class MtlLibrary:
 
 
 def read_mtl(path) -> MtlLibrary:
-    """The library in the file at `path`; raises MtlProblem or FileProblem."""
+    """The library in the file at `path` (a regular file of at most MAX_MTL_BYTES); raises MtlProblem."""
     try:
         data = read_regular_file(path, MAX_MTL_BYTES)
     except FileProblem as exc:
@@ -144,7 +144,7 @@ def read_mtl(path) -> MtlLibrary:
 
 
 def _name(raw: bytes) -> str:
-    """A name (`newmtl`, `usemtl`) as both the library and the OBJ reader decode it."""
+    """A `newmtl` name, decoded as the OBJ reader decodes a `usemtl` one (meshfile._MaterialStatements)."""
     return raw.strip().decode("utf-8", "replace")
 
 
@@ -161,7 +161,6 @@ def parse_mtl(data: bytes) -> MtlLibrary:
     dropped: dict = {}  # keyword -> [first line, count]: one warning per keyword per file
     warnings: list = []
     current: Optional[MtlEntry] = None
-    duplicate = False
     for number, raw in enumerate(data.split(b"\n"), 1):
         words = raw.split(b"#", 1)[0].split()
         if not words:
@@ -173,8 +172,7 @@ def parse_mtl(data: bytes) -> MtlLibrary:
                 raise MtlProblem("newmtl needs a name", number)
             if len(name) > MAX_NAME_CHARS:
                 raise MtlProblem(f"a material name of {len(name):,} characters, more than the {MAX_NAME_CHARS:,} allowed", number)
-            duplicate = name in materials
-            if duplicate:
+            if name in materials:
                 warnings.append((number, f"material {quote_key(name)} is defined again (first on line "
                                          f"{materials[name].line}); the first definition is used"))
                 current = MtlEntry(name, number)  # read, to check it, and left out

@@ -75,7 +75,8 @@ class Builder:
                                           roughnessFactor=roughness)
         if texture is not None:
             pbr.baseColorTexture = self.g.TextureInfo(index=texture)
-        mat = self.g.Material(name=name, pbrMetallicRoughness=pbr, extensions=extensions or {})
+        # Two-sided, as every rt surface is: the import then has nothing to warn about.
+        mat = self.g.Material(name=name, pbrMetallicRoughness=pbr, extensions=extensions or {}, doubleSided=True)
         for ext in mat.extensions:
             if ext not in self.doc.extensionsUsed:
                 self.doc.extensionsUsed.append(ext)
@@ -185,7 +186,9 @@ def still_life() -> bytes:
     wood = b.material("wood", (1, 1, 1), 0.0, 0.55, texture=b.png_texture(wood_pixels()))
     floor = b.material("floor", (0.55, 0.55, 0.52), 0.0, 0.8)
     glass = b.material("glass", (1, 1, 1), 0.0, 0.0, extensions={
-        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+        # A volume makes it a solid of glass rather than a thin sheet (the vase is closed at its top).
+        "KHR_materials_volume": {"thicknessFactor": 0.1}})
     gold = b.material("gold", (1.0, 0.78, 0.34), 1.0, 0.25)
     fruit = b.material("fruit", (0.65, 0.06, 0.04), 0.0, 0.35)
     jug = b.material("glazed", (0.10, 0.22, 0.55), 0.0, 0.5, extensions={
@@ -194,7 +197,14 @@ def still_life() -> bytes:
     top = b.mesh("table_top", *box((1.6, 0.06, 0.9)), wood)
     leg = b.mesh("table_leg", *box((0.07, 0.72, 0.07)), wood)
     ground = b.mesh("floor", *box((8.0, 0.02, 8.0)), floor)
-    vase_profile = [(0.0, 0.0), (0.07, 0.0), (0.09, 0.05), (0.1, 0.12), (0.07, 0.22), (0.045, 0.3), (0.055, 0.34)]
+    wall = b.mesh("wall", *box((8.0, 4.0, 0.02)), b.material("plaster", (0.62, 0.6, 0.56), 0.0, 0.9))
+    window = b.material("window", (0.0, 0.0, 0.0), 0.0, 1.0)
+    # An emissive panel, as exporters write an area light: emissiveFactor times the strength extension.
+    b.doc.materials[window].emissiveFactor = [1.0, 0.95, 0.88]
+    b.doc.materials[window].extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}
+    b.doc.extensionsUsed.append("KHR_materials_emissive_strength")
+    panel = b.mesh("window", *box((1.4, 1.4, 0.02)), window)
+    vase_profile = [(0.0, 0.0), (0.07, 0.0), (0.09, 0.05), (0.1, 0.12), (0.07, 0.22), (0.045, 0.3), (0.055, 0.34), (0.0, 0.34)]
     vase = b.mesh("vase", *lathe(vase_profile, 48), glass)
     bowl_profile = [(0.0, 0.0), (0.08, 0.0), (0.15, 0.04), (0.19, 0.1), (0.185, 0.1), (0.145, 0.045), (0.0, 0.012)]
     bowl = b.mesh("bowl", *lathe(bowl_profile, 48), gold)
@@ -214,12 +224,16 @@ def still_life() -> bytes:
     top_node = b.node("top", mesh=top, translation=[0.0, 0.75, 0.0])
     table = b.node("table", children=[top_node, *legs, bowl_node, vase_node, jug_node], translation=[0.0, 0.0, 0.0])
     floor_node = b.node("floor", mesh=ground, translation=[0.0, -0.01, 0.0])
+    wall_node = b.node("wall", mesh=wall, translation=[0.0, 2.0, -1.6])
+    # The panel stands to the left, turned 60 degrees about y to face the table.
+    face = [0.0, math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))]
+    panel_node = b.node("window", mesh=panel, translation=[-2.4, 1.6, 0.4], rotation=face)
 
     b.doc.extensionsUsed.append("KHR_lights_punctual")
     b.doc.extensions = {"KHR_lights_punctual": {"lights": [
-        {"type": "spot", "name": "key", "color": [1.0, 0.92, 0.8], "intensity": 60.0,
-         "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.55}},
-        {"type": "point", "name": "fill", "color": [0.7, 0.8, 1.0], "intensity": 8.0},
+        {"type": "spot", "name": "key", "color": [1.0, 0.92, 0.8], "intensity": 4000.0,
+         "spot": {"innerConeAngle": 0.45, "outerConeAngle": 0.8}},
+        {"type": "point", "name": "fill", "color": [0.7, 0.8, 1.0], "intensity": 800.0},
     ]}}
     # The spot hangs above the table and looks straight down (glTF lights shine along -z).
     down = [-math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)]
@@ -231,7 +245,7 @@ def still_life() -> bytes:
     # Looking at the table top from the front, a little above it: a turn down about x.
     tilt = math.radians(-16)
     cam = b.node("camera", camera=0, translation=[0.0, 1.35, 2.3], rotation=[math.sin(tilt / 2), 0.0, 0.0, math.cos(tilt / 2)])
-    b.doc.scenes.append(g.Scene(name="still life", nodes=[table, floor_node, key, fill, cam]))
+    b.doc.scenes.append(g.Scene(name="still life", nodes=[table, floor_node, wall_node, panel_node, key, fill, cam]))
     b.doc.scene = 0
     return b.save(MODEL)
 

@@ -1,0 +1,292 @@
+"""What the denoiser buys and what bias it brings, measured against converged references (issue 35).
+
+    python benchmarks/denoise_error.py [--scenes cornell_box,final_scene,sky_spheres] [--spp 4,16,64,256]
+                                       [--seeds 8] [--write-doc [PATH]]
+
+For each scene at the converged references' size (48 pixels wide, tests/renderer/converged.py)
+and each sample count, `--seeds` renders with different seeds, each denoised (rt/denoise.py: Open
+Image Denoise's RT filter, hdr) from its colour alone, and again guided by the albedo and normal
+passes when this checkout has them (`guided`). Every image's TRUE relative RMS error is measured
+against the scene's converged reference with the reference's own expected squared error taken
+out (converged.true_error), on two sets of pixels:
+
+- `unlit`: all but those whose camera rays see a light or the background, or brighter than 1
+  (benchmarks/light_pixels.py, as the integrator study of docs/accuracy.md): their value is the
+  light's own, and on a 48-pixel Cornell box the lamp's 4% of the pixels hold most of the squared
+  signal, so an error over all pixels is mostly the error on the lamp's rim;
+- `all`: every pixel, which is what a viewer of the image sees.
+
+Per scene, sample count and set of pixels it prints: the raw render's error (the RMS over seeds,
+as docs/accuracy.md measures it: a render's expected squared error), the denoised images' errors,
+the seconds of the render and of the denoise (the passes' render included where guided), and the
+seconds the raw render would need to reach the denoised error, t x (e_raw / e_denoised)^2 (an
+unbiased estimator's squared error falls as one over its samples, so one over its time), over
+the seconds the denoised image took: above 1, denoising wins at equal time.
+
+Bias: a denoised image's error is part noise, part bias. The noise goes away in the mean of many
+renders with different seeds, the bias does not: the error of the mean of n renders is
+sqrt(bias^2 + var / n), while one render's expected squared error is bias^2 + var. So
+bias^2 = (n E_mean^2 - E^2) / (n - 1), with E the RMS over seeds and E_mean the error of the
+mean image; printed as the bias's relative RMS, beside the raw render's own figure as a control
+(an unbiased render gives about 0).
+
+With --write-doc the table is written into docs/accuracy.md between the markers BEGIN and END
+(the section "Denoising"; created at the end of the page if missing; benchmarks/accuracy.py keeps
+it when it rewrites the page). The figures are generated, never typed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+for _path in (str(ROOT), str(Path(__file__).resolve().parent)):
+    if _path not in sys.path:
+        sys.path.insert(0, _path)
+
+SCENES = ("cornell_box", "final_scene", "sky_spheres")
+SPPS = (4, 16, 64, 256)
+SEEDS = 8
+KERNEL = "general"  # one compiled kernel for every scene (renderer/variants.py)
+PIXELS = ("unlit", "all")
+DOC = ROOT / "docs" / "accuracy.md"
+HEADING = "## Denoising"
+BEGIN, END = "<!-- measured by benchmarks/denoise_error.py -->", "<!-- end of measured by benchmarks/denoise_error.py -->"
+SEED_BASE = 51000  # far from the converged references' seeds (converged.SEEDS)
+
+
+@dataclass
+class Trial:
+    """One render of one scene at one sample count, raw and denoised, on every set of pixels."""
+
+    spp: int
+    seed: int
+    render_seconds: float  # the raw render's wall time
+    denoise_seconds: dict  # by mode ("colour", "guided"): the filter's seconds, the passes' render included
+    images: dict  # by mode, and "raw": the (h, w, 3) image
+
+
+@dataclass
+class Row:
+    """One scene, sample count, set of pixels and mode: the figures of a line of the table."""
+
+    scene: str
+    pixels: str
+    kept: float  # share of the pixels measured
+    spp: int
+    seeds: int
+    raw_error: float  # RMS over seeds
+    raw_seconds: float  # mean
+    mode: str  # "colour" or "guided"
+    error: float  # the denoised images', RMS over seeds
+    seconds: float  # mean seconds of the denoised image: render + passes + filter
+    raw_bias: float  # the control: the raw renders' bias estimate
+    bias: float  # the denoised images' bias estimate
+    mean_error: float = math.nan  # the error of the mean of the denoised images
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def raw_time_to_match(self) -> float:
+        """The seconds the raw render would need to reach the denoised error: t (e_raw / e_den)^2."""
+        if not (self.error > 0.0 and math.isfinite(self.raw_error)):
+            return math.inf
+        return self.raw_seconds * (self.raw_error / self.error) ** 2
+
+    @property
+    def gain(self) -> float:
+        """The raw render's time to the denoised error over the denoised image's time."""
+        return self.raw_time_to_match / self.seconds if self.seconds > 0 else math.nan
+
+
+def bias_estimate(errors: list[float], mean_error: float) -> float:
+    """The relative RMS bias from n renders' true errors and the error of their mean image:
+    sqrt(max(0, (n E_mean^2 - E^2) / (n - 1))), E^2 the mean squared error (see the module's text)."""
+    n = len(errors)
+    if n < 2:
+        return math.nan
+    squared = sum(e * e for e in errors) / n
+    return math.sqrt(max(0.0, (n * mean_error**2 - squared) / (n - 1)))
+
+
+def aux_renderer():
+    """The function that renders the albedo and normal passes (renderer/tracing/aux_passes.py's
+    `render_aux`), or None where this checkout has none: the guided mode is then left out."""
+    try:
+        from renderer.tracing.aux_passes import render_aux
+    except ImportError:
+        return None
+    return render_aux
+
+
+def run_trials(graph, flat, spps, seeds: int, render_aux=None) -> list[Trial]:
+    """`seeds` renders of the flattened scene at each of `spps`, each denoised from its colour and,
+    with `render_aux`, guided by its passes (rendered with the render's seed)."""
+    from renderer.render import render
+
+    from rt.denoise import denoise
+
+    width, height = graph.image.width, graph.image.pixel_height
+    trials = []
+    for spp in spps:
+        for index in range(seeds):
+            seed = SEED_BASE + 1000 * spp + index
+            started = time.perf_counter()
+            result = render(graph, flat=flat, samples=spp, seed=seed, kernel=KERNEL)
+            render_seconds = time.perf_counter() - started
+            raw = result.film.mean()
+            images, seconds = {"raw": raw}, {}
+            started = time.perf_counter()
+            images["colour"] = denoise(raw)
+            seconds["colour"] = time.perf_counter() - started
+            if render_aux is not None:
+                started = time.perf_counter()
+                aux = render_aux(flat, width, height, seed=seed)
+                images["guided"] = denoise(raw, aux["albedo"], aux["normal"])
+                seconds["guided"] = time.perf_counter() - started
+            trials.append(Trial(spp, seed, render_seconds, seconds, images))
+    return trials
+
+
+def measure(scene: str, trials: list[Trial], reference, keep: np.ndarray, pixels: str) -> list[Row]:
+    """The rows of one scene on one set of pixels (`keep`, a (h, w) mask), from its trials."""
+    from caustics import masked
+
+    from tests.renderer.converged import true_error
+
+    truth = masked(reference, keep)
+    rows = []
+    for spp in sorted({t.spp for t in trials}):
+        at = [t for t in trials if t.spp == spp]
+        raw_errors = [true_error(t.images["raw"][keep], truth) for t in at]
+        raw_rms = math.sqrt(sum(e * e for e in raw_errors) / len(at))
+        raw_mean_error = true_error(np.mean([t.images["raw"] for t in at], axis=0)[keep], truth)
+        raw_seconds = sum(t.render_seconds for t in at) / len(at)
+        for mode in [m for m in ("colour", "guided") if m in at[0].images]:
+            errors = [true_error(t.images[mode][keep].astype(np.float64), truth) for t in at]
+            mean_error = true_error(np.mean([t.images[mode].astype(np.float64) for t in at], axis=0)[keep], truth)
+            rows.append(Row(scene, pixels, float(np.mean(keep)), spp, len(at), raw_rms, raw_seconds, mode,
+                            math.sqrt(sum(e * e for e in errors) / len(at)),
+                            raw_seconds + sum(t.denoise_seconds[mode] for t in at) / len(at),
+                            bias_estimate(raw_errors, raw_mean_error), bias_estimate(errors, mean_error), mean_error))
+    return rows
+
+
+def table(rows: list[Row]) -> list[str]:
+    """The markdown table of `rows` (one set of pixels)."""
+    lines = ["| scene (pixels kept) | spp | raw error | raw s | denoised from | denoised error | denoised s "
+             "| raw s to that error | gain at equal time | bias: raw (control) | bias: denoised |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r.scene} ({r.kept:.0%}) | {r.spp} | {r.raw_error:.4f} | {r.raw_seconds:.3f} | "
+                     f"{'colour and passes' if r.mode == 'guided' else 'colour'} | {r.error:.4f} | {r.seconds:.3f} | "
+                     f"{r.raw_time_to_match:.3g} | {r.gain:.3g} | {r.raw_bias:.4f} | {r.bias:.4f} |")
+    return lines
+
+
+def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[str]:
+    """The generated part of docs/accuracy.md's "Denoising" section: how it was measured, then a
+    table per set of pixels."""
+    from importlib.metadata import version as package_version
+
+    import pyoidn
+
+    scenes = ", ".join(dict.fromkeys(r.scene for r in rows))
+    spps = ", ".join(str(s) for s in sorted({r.spp for r in rows}))
+    version = f"{package_version('pyoidn')} (Open Image Denoise {pyoidn.version.oidn_version})"
+    lines = [f"Measured with `python benchmarks/denoise_error.py --write-doc` on {platform.machine()}, {os.cpu_count()} "
+             f"cores, in {seconds:.0f} s: {scenes} at 48 pixels wide, {spps} samples per pixel, {seeds} seeds each, "
+             f"the general kernel; pyoidn {version}, the RT filter with hdr on"
+             + (", from the colour alone and guided by the albedo and normal passes (16 camera rays per pixel)"
+                if guided else ", from the colour alone (this checkout has no albedo and normal passes)") + ". "
+             "Errors are relative RMS against the converged reference, RMS over the seeds; seconds are wall "
+             "seconds per image, a denoised image's counting its render, its passes and the filter. *Raw s to that "
+             "error* is t x (raw error / denoised error)^2, *gain at equal time* that over the denoised image's "
+             "seconds. *Bias* is the part of the error the mean over the seeds keeps: sqrt((n E_mean^2 - E^2) / (n - 1)).",
+             ""]
+    for pixels in PIXELS:
+        mine = [r for r in rows if r.pixels == pixels]
+        if not mine:
+            continue
+        what = ("pixels that see no light nor the background and are not brighter than 1 (benchmarks/light_pixels.py)"
+                if pixels == "unlit" else "all pixels")
+        lines += [f"**{pixels.capitalize()} pixels**: {what}.", ""] + table(mine) + [""]
+    return lines
+
+
+def write_doc(lines: list[str], path: Path = DOC) -> None:
+    """Put `lines` between BEGIN and END in `path` (atomically), adding the section at the end of the
+    page where it has none; the text around the markers stays."""
+    from renderer.film import _atomic_write
+
+    text = path.read_text(encoding="utf-8") if path.exists() else ""
+    if BEGIN in text and END in text.split(BEGIN, 1)[1]:
+        head, rest = text.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1]
+    else:
+        head, tail = text.rstrip("\n") + f"\n\n{HEADING}\n\n", "\n"
+    data = (head + BEGIN + "\n" + "\n".join(lines).rstrip("\n") + "\n" + END + tail).encode("utf-8")
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
+def study(scenes, spps, seeds: int, progress=print) -> tuple[list[Row], bool]:
+    """Every scene's rows on every set of pixels; whether the guided mode was measured."""
+    from light_pixels import kept_pixels
+
+    from renderer.compile import compile_scene
+    from renderer.render import render
+    from rt.denoise import denoise
+    from tests.renderer.converged import load_reference, scene_file, small_graph
+
+    render_aux = aux_renderer()
+    rows = []
+    for stem in scenes:
+        graph = small_graph(scene_file(stem))
+        flat = compile_scene(graph)
+        warm = render(graph, flat=flat, samples=1, kernel=KERNEL)  # compile or load the kernel before any clock
+        denoise(warm.film.mean())  # the denoiser's device is made on its first call
+        if render_aux is not None:
+            render_aux(flat, graph.image.width, graph.image.pixel_height, samples=1)
+        reference = load_reference(stem)
+        started = time.perf_counter()
+        trials = run_trials(graph, flat, spps, seeds, render_aux)
+        masks = {"unlit": kept_pixels(graph, reference.mean), "all": np.ones(reference.mean.shape[:2], bool)}
+        for pixels in PIXELS:
+            rows += measure(stem, trials, reference, masks[pixels], pixels)
+        progress(f"{stem}: {len(trials)} renders in {time.perf_counter() - started:.0f} s")
+    return rows, render_aux is not None
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenes", default=",".join(SCENES))
+    parser.add_argument("--spp", default=",".join(str(s) for s in SPPS), help="samples per pixel, comma-separated")
+    parser.add_argument("--seeds", type=int, default=SEEDS, help="renders per scene and sample count (2 or more)")
+    parser.add_argument("--write-doc", nargs="?", const=str(DOC), default=None, metavar="PATH",
+                        help="write the tables into docs/accuracy.md (or PATH) between the markers")
+    args = parser.parse_args(argv)
+    if args.seeds < 2:
+        parser.error("--seeds: the bias needs 2 or more")
+    spps = tuple(int(s) for s in args.spp.split(","))
+    started = time.perf_counter()
+    rows, guided = study(args.scenes.split(","), spps, args.seeds, progress=lambda line: print(line, flush=True))
+    seconds = time.perf_counter() - started
+    lines = section(rows, args.seeds, seconds, guided)
+    print("\n" + "\n".join(lines))
+    if args.write_doc:
+        write_doc(lines, Path(args.write_doc))
+        print(f"wrote {args.write_doc}")
+    print(f"{seconds:.0f} s in all")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -18,10 +18,16 @@ out (converged.true_error), on two sets of pixels:
 
 Per scene, sample count and set of pixels it prints: the raw render's error (the RMS over seeds,
 as docs/accuracy.md measures it: a render's expected squared error), the denoised images' errors,
-the seconds of the render and of the denoise (the passes' render included where guided), and the
-seconds the raw render would need to reach the denoised error, t x (e_raw / e_denoised)^2 (an
-unbiased estimator's squared error falls as one over its samples, so one over its time), over
-the seconds the denoised image took: above 1, denoising wins at equal time.
+and what the raw render would need to reach the denoised error: spp x (e_raw / e_denoised)^2
+samples (an unbiased estimator's squared error falls as one over its samples), and the seconds
+of a render of that many. A render of a 48-pixel image at a few samples is mostly fixed cost
+(starting its passes: 0.06 s of a 4-spp Cornell box's 0.1), so its seconds are not scaled in
+proportion, t x (e_raw / e_denoised)^2, which would credit the raw render with that cost many
+times over: the raw renders' mean seconds at the study's sample counts are fitted by a line,
+fixed + per-sample x spp (least squares, the fixed part at least 0), and the seconds of both
+are read from it. Against them, the denoised image's seconds: the same line at its samples, plus
+the denoise (the passes' render included where guided). Their ratio is the gain at equal time:
+above 1, denoising wins.
 
 Bias: a denoised image's error is part noise, part bias. The noise goes away in the mean of many
 renders with different seeds, the bias does not: the error of the mean of n renders is
@@ -43,7 +49,7 @@ import os
 import platform
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -85,26 +91,51 @@ class Row:
     spp: int
     seeds: int
     raw_error: float  # RMS over seeds
-    raw_seconds: float  # mean
+    raw_seconds: float  # measured, the mean over seeds
     mode: str  # "colour" or "guided"
     error: float  # the denoised images', RMS over seeds
-    seconds: float  # mean seconds of the denoised image: render + passes + filter
+    denoise_seconds: float  # mean seconds of the denoise: the passes' render (guided) and the filter
     raw_bias: float  # the control: the raw renders' bias estimate
     bias: float  # the denoised images' bias estimate
-    mean_error: float = math.nan  # the error of the mean of the denoised images
-    extra: dict = field(default_factory=dict)
+    timing: tuple = (0.0, 0.0)  # (fixed, per sample): the line fitted to the raw renders' seconds
+
+    def render_seconds(self, spp: float) -> float:
+        """A raw render's seconds at `spp` samples per pixel, read from the fitted line."""
+        fixed, per_sample = self.timing
+        return fixed + per_sample * spp
+
+    @property
+    def raw_spp_to_match(self) -> float:
+        """The samples per pixel the raw render would need to reach the denoised error: spp (e_raw / e_den)^2."""
+        if not (self.error > 0.0 and math.isfinite(self.raw_error)):
+            return math.inf
+        return self.spp * (self.raw_error / self.error) ** 2
 
     @property
     def raw_time_to_match(self) -> float:
-        """The seconds the raw render would need to reach the denoised error: t (e_raw / e_den)^2."""
-        if not (self.error > 0.0 and math.isfinite(self.raw_error)):
-            return math.inf
-        return self.raw_seconds * (self.raw_error / self.error) ** 2
+        """The seconds of a raw render of `raw_spp_to_match` samples (the fitted line)."""
+        return self.render_seconds(self.raw_spp_to_match)
+
+    @property
+    def seconds(self) -> float:
+        """The denoised image's seconds: its render's (the fitted line) and the denoise."""
+        return self.render_seconds(self.spp) + self.denoise_seconds
 
     @property
     def gain(self) -> float:
         """The raw render's time to the denoised error over the denoised image's time."""
         return self.raw_time_to_match / self.seconds if self.seconds > 0 else math.nan
+
+
+def fit_timing(spps, seconds) -> tuple[float, float]:
+    """(fixed, per sample) of the line fixed + per_sample x spp nearest `seconds` at `spps` in least
+    squares, the fixed part at least 0 (else the line through 0); one sample count gives the line through 0."""
+    x, y = np.asarray(spps, float), np.asarray(seconds, float)
+    if len(set(x.tolist())) >= 2:
+        per_sample, fixed = np.polyfit(x, y, 1)
+        if fixed >= 0.0 and per_sample > 0.0:
+            return float(fixed), float(per_sample)
+    return 0.0, float(np.dot(x, y) / np.dot(x, x))
 
 
 def bias_estimate(errors: list[float], mean_error: float) -> float:
@@ -163,8 +194,10 @@ def measure(scene: str, trials: list[Trial], reference, keep: np.ndarray, pixels
     from tests.renderer.converged import true_error
 
     truth = masked(reference, keep)
+    spps = sorted({t.spp for t in trials})
+    timing = fit_timing(spps, [np.mean([t.render_seconds for t in trials if t.spp == spp]) for spp in spps])
     rows = []
-    for spp in sorted({t.spp for t in trials}):
+    for spp in spps:
         at = [t for t in trials if t.spp == spp]
         raw_errors = [true_error(t.images["raw"][keep], truth) for t in at]
         raw_rms = math.sqrt(sum(e * e for e in raw_errors) / len(at))
@@ -175,21 +208,29 @@ def measure(scene: str, trials: list[Trial], reference, keep: np.ndarray, pixels
             mean_error = true_error(np.mean([t.images[mode].astype(np.float64) for t in at], axis=0)[keep], truth)
             rows.append(Row(scene, pixels, float(np.mean(keep)), spp, len(at), raw_rms, raw_seconds, mode,
                             math.sqrt(sum(e * e for e in errors) / len(at)),
-                            raw_seconds + sum(t.denoise_seconds[mode] for t in at) / len(at),
-                            bias_estimate(raw_errors, raw_mean_error), bias_estimate(errors, mean_error), mean_error))
+                            sum(t.denoise_seconds[mode] for t in at) / len(at),
+                            bias_estimate(raw_errors, raw_mean_error), bias_estimate(errors, mean_error), timing))
     return rows
 
 
 def table(rows: list[Row]) -> list[str]:
     """The markdown table of `rows` (one set of pixels)."""
-    lines = ["| scene (pixels kept) | spp | raw error | raw s | denoised from | denoised error | denoised s "
-             "| raw s to that error | gain at equal time | bias: raw (control) | bias: denoised |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| scene (pixels kept) | spp | raw error | raw s | denoised from | denoised error | denoise s | denoised s "
+             "| raw spp to that error | raw s to that error | gain at equal time | bias: raw (control) | bias: denoised |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r.scene} ({r.kept:.0%}) | {r.spp} | {r.raw_error:.4f} | {r.raw_seconds:.3f} | "
-                     f"{'colour and passes' if r.mode == 'guided' else 'colour'} | {r.error:.4f} | {r.seconds:.3f} | "
-                     f"{r.raw_time_to_match:.3g} | {r.gain:.3g} | {r.raw_bias:.4f} | {r.bias:.4f} |")
+                     f"{'colour and passes' if r.mode == 'guided' else 'colour'} | {r.error:.4f} | {r.denoise_seconds:.3f} | "
+                     f"{r.seconds:.3f} | {r.raw_spp_to_match:.0f} | {r.raw_time_to_match:.3g} | {r.gain:.3g} | "
+                     f"{r.raw_bias:.4f} | {r.bias:.4f} |")
     return lines
+
+
+def timing_line(rows: list[Row]) -> str:
+    """The fitted line of each scene's raw render seconds, as a sentence."""
+    fits = {r.scene: r.timing for r in rows}
+    return "Raw renders' seconds fitted as fixed + per sample x spp: " + "; ".join(
+        f"{scene} {fixed:.3f} s + {1000 * per:.2f} ms x spp" for scene, (fixed, per) in fits.items()) + "."
 
 
 def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[str]:
@@ -207,10 +248,14 @@ def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[s
              f"the general kernel; pyoidn {version}, the RT filter with hdr on"
              + (", from the colour alone and guided by the albedo and normal passes (16 camera rays per pixel)"
                 if guided else ", from the colour alone (this checkout has no albedo and normal passes)") + ". "
-             "Errors are relative RMS against the converged reference, RMS over the seeds; seconds are wall "
-             "seconds per image, a denoised image's counting its render, its passes and the filter. *Raw s to that "
-             "error* is t x (raw error / denoised error)^2, *gain at equal time* that over the denoised image's "
-             "seconds. *Bias* is the part of the error the mean over the seeds keeps: sqrt((n E_mean^2 - E^2) / (n - 1)).",
+             "Errors are relative RMS against the converged reference, RMS over the seeds. *Raw s* is the raw "
+             "renders' measured wall seconds; *denoise s* the denoise's (the passes' render included where guided); "
+             "*denoised s* the fitted render seconds at its samples plus the denoise; *raw spp to that error* is "
+             "spp x (raw error / denoised error)^2 and *raw s to that error* the fitted seconds of a render of that "
+             "many; *gain at equal time* is that over the denoised image's seconds. *Bias* is the part of the "
+             "error the mean over the seeds keeps, sqrt((n E_mean^2 - E^2) / (n - 1)); the raw renders' own figure "
+             "is the control: near 0 where the seeds saw the scene's light, well above it where they all missed "
+             "its rare bright paths (then neither figure is a bias). " + timing_line(rows),
              ""]
     for pixels in PIXELS:
         mine = [r for r in rows if r.pixels == pixels]

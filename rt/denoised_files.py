@@ -40,12 +40,13 @@ def write_denoised(opts: "RenderOptions", film: "Film", flat, fail: Callable[[st
 
     from .denoise import DenoiseError, DenoiserMissing, denoise
 
-    raw = ", ".join(str(p) for p in (opts.out, opts.hdr) if p is not None)
+    written = [str(p) for p in (opts.out, opts.hdr) if p is not None]
+    raw = f"the raw image {written[0]} is written" if len(written) == 1 else f"the raw images {' and '.join(written)} are written"
     started = time.perf_counter()
     try:
         image = denoise(film.mean())
     except (DenoiseError, DenoiserMissing) as exc:
-        raise fail(f"error: --denoise: {exc}; the raw image ({raw}) is written")
+        raise fail(f"error: --denoise: {exc}; {raw}")
     seconds = time.perf_counter() - started
     exposed = image if not opts.exposure else image * 2.0 ** opts.exposure  # the PNG only, as the raw one
     for path, linear in zip(opts.denoised, (exposed, image)):
@@ -53,5 +54,5 @@ def write_denoised(opts: "RenderOptions", film: "Film", flat, fail: Callable[[st
             write_image(path, linear)
         except (OSError, ValueError) as exc:
             reason = describe_os_error(exc) if isinstance(exc, OSError) else str(exc)
-            raise fail(f"error: cannot write {path}: {reason}; the raw image ({raw}) is written")
+            raise fail(f"error: cannot write {path}: {reason}; {raw}")
     return Denoised((), 0.0, seconds)

@@ -181,6 +181,41 @@ def test_rt_render_denoise_writes_the_denoised_images_beside_the_raw_ones(tmp_pa
 
 
 @pytest.mark.slow
+def test_a_batch_denoises_each_scene_beside_its_own_image(tmp_path):
+    from typer.testing import CliRunner
+
+    from rt.cli import app
+
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.yaml").write_text(SMALL)
+    result = CliRunner().invoke(app, ["render", str(tmp_path / "a.yaml"), str(tmp_path / "b.yaml"), "-o", str(tmp_path / "out"),
+                                      "--hdr", "pfm", "--denoise", "--kernel", "general", "--spp", "2"])
+    assert result.exit_code == 0, result.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "a.denoised.pfm", "a.denoised.png", "a.pfm", "a.png", "b.denoised.pfm", "b.denoised.png", "b.pfm", "b.png"]
+
+
+@pytest.mark.slow
+def test_a_failing_filter_says_one_sentence_and_leaves_the_raw_images(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    import rt.denoise
+    from rt.cli import app
+
+    def fails(*args, **kwargs):
+        raise DenoiseError("Open Image Denoise failed: out of memory")
+
+    monkeypatch.setattr(rt.denoise, "denoise", fails)
+    (tmp_path / "ball.yaml").write_text(SMALL)
+    result = CliRunner().invoke(app, ["render", str(tmp_path / "ball.yaml"), "-o", str(tmp_path / "b.png"), "--hdr",
+                                      str(tmp_path / "b.pfm"), "--denoise", "--kernel", "general"])
+    assert result.exit_code == 1
+    assert result.stderr.splitlines()[-1] == (f"error: --denoise: Open Image Denoise failed: out of memory; the raw images "
+                                              f"{tmp_path / 'b.png'} and {tmp_path / 'b.pfm'} are written")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.pfm", "b.png", "ball.yaml"]
+
+
+@pytest.mark.slow
 def test_denoising_a_render_brings_it_nearer_its_converged_reference():
     import rt
     from tests.renderer.converged import load_reference
@@ -200,6 +235,13 @@ def test_denoising_a_render_brings_it_nearer_its_converged_reference():
 
 
 # The benchmark's arithmetic, on images made here (no render).
+
+def test_the_render_seconds_are_fitted_by_a_fixed_and_a_per_sample_cost():
+    assert denoise_error.fit_timing([4, 16, 64], [0.06 + 0.002 * n for n in (4, 16, 64)]) == pytest.approx((0.06, 0.002))
+    # A line that would start below 0 (a noisy measurement) goes through 0 instead; so does one sample count.
+    assert denoise_error.fit_timing([4, 16], [0.01, 0.1])[0] == 0.0
+    assert denoise_error.fit_timing([8], [0.4]) == pytest.approx((0.0, 0.05))
+
 
 def test_the_bias_estimate_separates_a_constant_error_from_noise():
     rng = np.random.default_rng(3)
@@ -234,14 +276,18 @@ def test_the_benchmark_table_is_generated_from_its_measurements(tmp_path):
     for r in rows:
         assert r.raw_error == pytest.approx(1 / math.sqrt(r.spp), rel=0.15)
         assert r.error < r.raw_error
-        assert r.seconds == pytest.approx(r.raw_seconds + (0.005 if r.mode == "colour" else 0.007))
-        assert r.raw_time_to_match == pytest.approx(r.raw_seconds * (r.raw_error / r.error) ** 2)
+        # The renders took 0.01 s per sample and nothing more: the fitted line is that.
+        assert r.timing == pytest.approx((0.0, 0.01), abs=1e-12)
+        assert r.seconds == pytest.approx(0.01 * r.spp + (0.005 if r.mode == "colour" else 0.007))
+        assert r.raw_spp_to_match == pytest.approx(r.spp * (r.raw_error / r.error) ** 2)
+        assert r.raw_time_to_match == pytest.approx(0.01 * r.raw_spp_to_match)
         assert r.gain == pytest.approx(r.raw_time_to_match / r.seconds)
         assert r.raw_bias < 0.5 * r.raw_error / math.sqrt(2)  # the control: no more than noise over 4 seeds
     lines = denoise_error.section(rows, 4, 1.0, guided=True)
     rows_text = [line for line in lines if line.startswith("| ramp")]
     assert len(rows_text) == 4
-    assert rows_text[0].startswith(f"| ramp (100%) | 4 | {rows[0].raw_error:.4f} | 0.040 | colour | {rows[0].error:.4f} |")
+    assert rows_text[0].startswith(f"| ramp (100%) | 4 | {rows[0].raw_error:.4f} | 0.040 | colour | {rows[0].error:.4f} | "
+                                   f"0.005 | 0.045 | {rows[0].raw_spp_to_match:.0f} |")
 
     doc = tmp_path / "accuracy.md"
     doc.write_text("# Page\n\nprose before\n")

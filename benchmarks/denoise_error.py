@@ -5,8 +5,11 @@
 
 For each scene at the converged references' size (48 pixels wide, tests/renderer/converged.py)
 and each sample count, `--seeds` renders with different seeds, each denoised (rt/denoise.py: Open
-Image Denoise's RT filter, hdr) from its colour alone, and again guided by the albedo and normal
-passes when this checkout has them (`guided`). Every image's TRUE relative RMS error is measured
+Image Denoise's RT filter, hdr) three ways (MODES): from its colour alone; guided by the albedo and
+normal passes (renderer/tracing/aux_passes.py, rendered with the render's seed and as many camera
+rays as `rt render --denoise` gives them, rt/denoised_files.PASS_SAMPLES) that OIDN filters first
+(`prefiltered`, cleanAux off); and guided by the same passes read as they are (`guided`, cleanAux
+on: what `rt render --denoise` does, SHIPPED). Every image's TRUE relative RMS error is measured
 against the scene's converged reference with the reference's own expected squared error taken
 out (converged.true_error), on two sets of pixels:
 
@@ -16,7 +19,8 @@ out (converged.true_error), on two sets of pixels:
   signal, so an error over all pixels is mostly the error on the lamp's rim;
 - `all`: every pixel, which is what a viewer of the image sees.
 
-Per scene, sample count and set of pixels it prints: the raw render's error (the RMS over seeds,
+The first table sets the three ways side by side (errors only); the others follow the shipped
+one. Per scene, sample count and set of pixels they print: the raw render's error (the RMS over seeds,
 as docs/accuracy.md measures it: a render's expected squared error), the denoised images' errors,
 and what the raw render would need to reach the denoised error: spp x (e_raw / e_denoised)^2
 samples (an unbiased estimator's squared error falls as one over its samples), and the seconds
@@ -68,6 +72,10 @@ DOC = ROOT / "docs" / "accuracy.md"
 HEADING = "## Denoising"
 BEGIN, END = "<!-- measured by benchmarks/denoise_error.py -->", "<!-- end of measured by benchmarks/denoise_error.py -->"
 SEED_BASE = 51000  # far from the converged references' seeds (converged.SEEDS)
+# How each image is denoised: (passes given, cleanAux), and what the tables call it.
+MODES = {"colour": (False, False), "prefiltered": (True, False), "guided": (True, True)}
+NAMES = {"colour": "colour alone", "prefiltered": "passes, prefiltered", "guided": "passes as they are"}
+SHIPPED = "guided"  # what rt render --denoise does (rt/denoised_files.guided_denoise)
 
 
 @dataclass
@@ -77,7 +85,7 @@ class Trial:
     spp: int
     seed: int
     render_seconds: float  # the raw render's wall time
-    denoise_seconds: dict  # by mode ("colour", "guided"): the filter's seconds, the passes' render included
+    denoise_seconds: dict  # by mode (MODES): the filter's seconds, the passes' render included
     images: dict  # by mode, and "raw": the (h, w, 3) image
 
 
@@ -92,7 +100,7 @@ class Row:
     seeds: int
     raw_error: float  # RMS over seeds
     raw_seconds: float  # measured, the mean over seeds
-    mode: str  # "colour" or "guided"
+    mode: str  # one of MODES
     error: float  # the denoised images', RMS over seeds
     denoise_seconds: float  # mean seconds of the denoise: the passes' render (guided) and the filter
     raw_bias: float  # the control: the raw renders' bias estimate
@@ -148,22 +156,15 @@ def bias_estimate(errors: list[float], mean_error: float) -> float:
     return math.sqrt(max(0.0, (n * mean_error**2 - squared) / (n - 1)))
 
 
-def aux_renderer():
-    """The function that renders the albedo and normal passes (renderer/tracing/aux_passes.py's
-    `render_aux`), or None where this checkout has none: the guided mode is then left out."""
-    try:
-        from renderer.tracing.aux_passes import render_aux
-    except ImportError:
-        return None
-    return render_aux
-
-
-def run_trials(graph, flat, spps, seeds: int, render_aux=None) -> list[Trial]:
-    """`seeds` renders of the flattened scene at each of `spps`, each denoised from its colour and,
-    with `render_aux`, guided by its passes (rendered with the render's seed)."""
+def run_trials(graph, flat, spps, seeds: int) -> list[Trial]:
+    """`seeds` renders of the flattened scene at each of `spps`, each denoised in every way of
+    MODES (the passes rendered once per render, with its seed, their seconds counted in each way
+    that reads them)."""
     from renderer.render import render
+    from renderer.tracing.aux_passes import render_aux
 
     from rt.denoise import denoise
+    from rt.denoised_files import PASS_SAMPLES
 
     width, height = graph.image.width, graph.image.pixel_height
     trials = []
@@ -176,13 +177,12 @@ def run_trials(graph, flat, spps, seeds: int, render_aux=None) -> list[Trial]:
             raw = result.film.mean()
             images, seconds = {"raw": raw}, {}
             started = time.perf_counter()
-            images["colour"] = denoise(raw)
-            seconds["colour"] = time.perf_counter() - started
-            if render_aux is not None:
+            aux = render_aux(flat, width, height, samples=PASS_SAMPLES, seed=seed)
+            pass_seconds = time.perf_counter() - started
+            for mode, (guided, clean) in MODES.items():
                 started = time.perf_counter()
-                aux = render_aux(flat, width, height, seed=seed)
-                images["guided"] = denoise(raw, aux["albedo"], aux["normal"])
-                seconds["guided"] = time.perf_counter() - started
+                images[mode] = denoise(raw, aux["albedo"], aux["normal"], clean_aux=clean) if guided else denoise(raw)
+                seconds[mode] = time.perf_counter() - started + (pass_seconds if guided else 0.0)
             trials.append(Trial(spp, seed, render_seconds, seconds, images))
     return trials
 
@@ -203,7 +203,7 @@ def measure(scene: str, trials: list[Trial], reference, keep: np.ndarray, pixels
         raw_rms = math.sqrt(sum(e * e for e in raw_errors) / len(at))
         raw_mean_error = true_error(np.mean([t.images["raw"] for t in at], axis=0)[keep], truth)
         raw_seconds = sum(t.render_seconds for t in at) / len(at)
-        for mode in [m for m in ("colour", "guided") if m in at[0].images]:
+        for mode in [m for m in MODES if m in at[0].images]:
             errors = [true_error(t.images[mode][keep].astype(np.float64), truth) for t in at]
             mean_error = true_error(np.mean([t.images[mode].astype(np.float64) for t in at], axis=0)[keep], truth)
             rows.append(Row(scene, pixels, float(np.mean(keep)), spp, len(at), raw_rms, raw_seconds, mode,
@@ -213,14 +213,28 @@ def measure(scene: str, trials: list[Trial], reference, keep: np.ndarray, pixels
     return rows
 
 
+def modes_table(rows: list[Row]) -> list[str]:
+    """The three ways of denoising side by side, errors only: a line per scene and sample count of
+    `rows` (one set of pixels)."""
+    modes = [m for m in MODES if any(r.mode == m for r in rows)]
+    lines = ["| scene | spp | raw error | " + " | ".join(f"denoised: {NAMES[m]}" for m in modes) + " |",
+             "|---|---|---|" + "---|" * len(modes)]
+    for key in dict.fromkeys((r.scene, r.spp) for r in rows):
+        mine = {r.mode: r for r in rows if (r.scene, r.spp) == key}
+        first = next(iter(mine.values()))
+        lines.append(f"| {key[0]} | {key[1]} | {first.raw_error:.4f} | "
+                     + " | ".join(f"{mine[m].error:.4f}" if m in mine else "" for m in modes) + " |")
+    return lines
+
+
 def table(rows: list[Row]) -> list[str]:
-    """The markdown table of `rows` (one set of pixels)."""
+    """The markdown table of `rows` (one set of pixels, one way of denoising)."""
     lines = ["| scene (pixels kept) | spp | raw error | raw s | denoised from | denoised error | denoise s | denoised s "
              "| raw spp to that error | raw s to that error | gain at equal time | bias: raw (control) | bias: denoised |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r.scene} ({r.kept:.0%}) | {r.spp} | {r.raw_error:.4f} | {r.raw_seconds:.3f} | "
-                     f"{'colour and passes' if r.mode == 'guided' else 'colour'} | {r.error:.4f} | {r.denoise_seconds:.3f} | "
+                     f"{NAMES[r.mode]} | {r.error:.4f} | {r.denoise_seconds:.3f} | "
                      f"{r.seconds:.3f} | {r.raw_spp_to_match:.0f} | {r.raw_time_to_match:.3g} | {r.gain:.3g} | "
                      f"{r.raw_bias:.4f} | {r.bias:.4f} |")
     return lines
@@ -233,9 +247,11 @@ def timing_line(rows: list[Row]) -> str:
         f"{scene} {fixed:.3f} s + {1000 * per:.2f} ms x spp" for scene, (fixed, per) in fits.items()) + "."
 
 
-def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[str]:
-    """The generated part of docs/accuracy.md's "Denoising" section: how it was measured, then a
-    table per set of pixels."""
+def section(rows: list[Row], seeds: int, seconds: float) -> list[str]:
+    """The generated part of docs/accuracy.md's "Denoising" section: how it was measured, the ways
+    of denoising side by side on the unlit pixels, then the shipped way's table per set of pixels."""
+    from rt.denoised_files import PASS_SAMPLES
+
     from importlib.metadata import version as package_version
 
     import pyoidn
@@ -245,10 +261,9 @@ def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[s
     version = f"{package_version('pyoidn')} (Open Image Denoise {pyoidn.version.oidn_version})"
     lines = [f"Measured with `python benchmarks/denoise_error.py --write-doc` on {platform.machine()}, {os.cpu_count()} "
              f"cores, in {seconds:.0f} s: {scenes} at 48 pixels wide, {spps} samples per pixel, {seeds} seeds each, "
-             f"the general kernel; pyoidn {version}, the RT filter with hdr on"
-             + (", from the colour alone and guided by the albedo and normal passes (16 camera rays per pixel)"
-                if guided else ", from the colour alone (this checkout has no albedo and normal passes)") + ". "
-             "Errors are relative RMS against the converged reference, RMS over the seeds. *Raw s* is the raw "
+             f"the general kernel; pyoidn {version}, the RT filter with hdr on, from the colour alone and guided by "
+             f"the albedo and normal passes ({PASS_SAMPLES} camera rays per pixel), prefiltered by OIDN or read as "
+             "they are (cleanAux). Errors are relative RMS against the converged reference, RMS over the seeds. *Raw s* is the raw "
              "renders' measured wall seconds; *denoise s* the denoise's (the passes' render included where guided); "
              "*denoised s* the fitted render seconds at its samples plus the denoise; *raw spp to that error* is "
              "spp x (raw error / denoised error)^2 and *raw s to that error* the fitted seconds of a render of that "
@@ -257,13 +272,15 @@ def section(rows: list[Row], seeds: int, seconds: float, guided: bool) -> list[s
              "is the control: near 0 where the seeds saw the scene's light, well above it where they all missed "
              "its rare bright paths (then neither figure is a bias). " + timing_line(rows),
              ""]
+    unlit = "pixels that see no light nor the background and are not brighter than 1 (benchmarks/light_pixels.py)"
+    lines += [f"**The ways of denoising**, unlit pixels: {unlit}. `rt render --denoise` reads the passes as they are.", ""]
+    lines += modes_table([r for r in rows if r.pixels == PIXELS[0]]) + [""]
     for pixels in PIXELS:
-        mine = [r for r in rows if r.pixels == pixels]
+        mine = [r for r in rows if r.pixels == pixels and r.mode == SHIPPED]
         if not mine:
             continue
-        what = ("pixels that see no light nor the background and are not brighter than 1 (benchmarks/light_pixels.py)"
-                if pixels == "unlit" else "all pixels")
-        lines += [f"**{pixels.capitalize()} pixels**: {what}.", ""] + table(mine) + [""]
+        what = unlit if pixels == "unlit" else "every pixel"
+        lines += [f"**{pixels.capitalize()} pixels**, denoised as `rt render --denoise` does: {what}.", ""] + table(mine) + [""]
     return lines
 
 
@@ -282,32 +299,31 @@ def write_doc(lines: list[str], path: Path = DOC) -> None:
     _atomic_write(path, lambda fh: fh.write(data))
 
 
-def study(scenes, spps, seeds: int, progress=print) -> tuple[list[Row], bool]:
-    """Every scene's rows on every set of pixels; whether the guided mode was measured."""
+def study(scenes, spps, seeds: int, progress=print) -> list[Row]:
+    """Every scene's rows on every set of pixels."""
     from light_pixels import kept_pixels
 
     from renderer.compile import compile_scene
     from renderer.render import render
+    from renderer.tracing.aux_passes import render_aux
     from rt.denoise import denoise
     from tests.renderer.converged import load_reference, scene_file, small_graph
 
-    render_aux = aux_renderer()
     rows = []
     for stem in scenes:
         graph = small_graph(scene_file(stem))
         flat = compile_scene(graph)
         warm = render(graph, flat=flat, samples=1, kernel=KERNEL)  # compile or load the kernel before any clock
         denoise(warm.film.mean())  # the denoiser's device is made on its first call
-        if render_aux is not None:
-            render_aux(flat, graph.image.width, graph.image.pixel_height, samples=1)
+        render_aux(flat, graph.image.width, graph.image.pixel_height, samples=1)  # and the passes' kernel compiled
         reference = load_reference(stem)
         started = time.perf_counter()
-        trials = run_trials(graph, flat, spps, seeds, render_aux)
+        trials = run_trials(graph, flat, spps, seeds)
         masks = {"unlit": kept_pixels(graph, reference.mean), "all": np.ones(reference.mean.shape[:2], bool)}
         for pixels in PIXELS:
             rows += measure(stem, trials, reference, masks[pixels], pixels)
         progress(f"{stem}: {len(trials)} renders in {time.perf_counter() - started:.0f} s")
-    return rows, render_aux is not None
+    return rows
 
 
 def main(argv=None) -> int:
@@ -322,9 +338,9 @@ def main(argv=None) -> int:
         parser.error("--seeds: the bias needs 2 or more")
     spps = tuple(int(s) for s in args.spp.split(","))
     started = time.perf_counter()
-    rows, guided = study(args.scenes.split(","), spps, args.seeds, progress=lambda line: print(line, flush=True))
+    rows = study(args.scenes.split(","), spps, args.seeds, progress=lambda line: print(line, flush=True))
     seconds = time.perf_counter() - started
-    lines = section(rows, args.seeds, seconds, guided)
+    lines = section(rows, args.seeds, seconds)
     print("\n" + "\n".join(lines))
     if args.write_doc:
         write_doc(lines, Path(args.write_doc))

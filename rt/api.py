@@ -141,7 +141,8 @@ class Image:
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
     - `denoised`: with `rt.render(..., denoise=True)`, Open Image Denoise's version of `array`
-      (height, width, 3) float32 (rt/denoise.py; its error is measured in docs/accuracy.md); else None.
+      (height, width, 3) float32, guided by the albedo and normal passes (rt/denoise.py,
+      rt/denoised_files.py; its error is measured in docs/accuracy.md); else None.
     - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
@@ -481,10 +482,10 @@ def render(
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
     image = Image(result.film, result.stats, name, frame.integrator)
-    if denoise:
-        from .denoise import denoise as denoise_image
+    if denoise:  # guided by the albedo and normal passes: the image's own where asked for (passes=), else rendered
+        from .denoised_files import guided_denoise
 
-        image.denoised = denoise_image(image.array)
+        image.denoised, _ = guided_denoise(image.array, flat, getattr(image, "passes", None))
         image.denoised.flags.writeable = False
     return image
 

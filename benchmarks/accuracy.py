@@ -579,15 +579,17 @@ def main() -> int:
 
 
 def denoising_section(page: str) -> str:
-    """The page's "Denoising" section as it stands (benchmarks/denoise_error.py writes its tables),
-    from its heading to the end of its measured block, to append after this study's own sections:
-    rewriting the page keeps it. Empty where the page has none."""
-    from denoise_error import END, HEADING
+    """The page's "Denoising" section as it stands (benchmarks/denoise_error.py writes its tables
+    between markers; the prose around them is written by hand), from its heading to the next
+    heading of its level or the page's end, to append after this study's own sections: rewriting
+    the page keeps it. Empty where the page has none."""
+    from denoise_error import HEADING
 
     start = page.find("\n" + HEADING + "\n")
-    if start < 0 or page.find(END, start) < 0:
+    if start < 0:
         return ""
-    return page[start:page.find(END, start) + len(END)] + "\n"
+    end = page.find("\n## ", start + len(HEADING) + 1)
+    return page[start:] if end < 0 else page[start:end] + "\n"
 
 
 def _fmt(seconds: float) -> str:

@@ -55,6 +55,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -247,7 +248,7 @@ def timing_line(rows: list[Row]) -> str:
         f"{scene} {fixed:.3f} s + {1000 * per:.2f} ms x spp" for scene, (fixed, per) in fits.items()) + "."
 
 
-def section(rows: list[Row], seeds: int, seconds: float) -> list[str]:
+def section(rows: list[Row], seeds: int, seconds: float, full: Optional[FullSize] = None) -> list[str]:
     """The generated part of docs/accuracy.md's "Denoising" section: how it was measured, the ways
     of denoising side by side on the unlit pixels, then the shipped way's table per set of pixels."""
     from rt.denoised_files import PASS_SAMPLES
@@ -270,7 +271,8 @@ def section(rows: list[Row], seeds: int, seconds: float) -> list[str]:
              "many; *gain at equal time* is that over the denoised image's seconds. *Bias* is the part of the "
              "error the mean over the seeds keeps, sqrt((n E_mean^2 - E^2) / (n - 1)); the raw renders' own figure "
              "is the control: near 0 where the seeds saw the scene's light, well above it where they all missed "
-             "its rare bright paths (then neither figure is a bias). " + timing_line(rows),
+             "its rare bright paths (then neither figure is a bias). " + timing_line(rows)
+             + ("" if full is None else " " + full.sentence()),
              ""]
     unlit = "pixels that see no light nor the background and are not brighter than 1 (benchmarks/light_pixels.py)"
     lines += [f"**The ways of denoising**, unlit pixels: {unlit}. `rt render --denoise` reads the passes as they are.", ""]
@@ -282,6 +284,53 @@ def section(rows: list[Row], seeds: int, seconds: float) -> list[str]:
         what = unlit if pixels == "unlit" else "every pixel"
         lines += [f"**{pixels.capitalize()} pixels**, denoised as `rt render --denoise` does: {what}.", ""] + table(mine) + [""]
     return lines
+
+
+@dataclass
+class FullSize:
+    """What a denoise costs at a scene's own size, against a sample per pixel of its render."""
+
+    scene: str
+    width: int
+    height: int
+    per_sample: float  # seconds of one more sample per pixel of the render
+    passes: float  # seconds of the albedo and normal passes (PASS_SAMPLES camera rays per pixel)
+    filter: float  # seconds of the filter
+
+    def sentence(self) -> str:
+        samples = (self.passes + self.filter) / self.per_sample if self.per_sample > 0 else math.nan
+        return (f"At {self.scene}'s own size, {self.width}x{self.height}, the passes took {self.passes:.2f} s and the filter "
+                f"{self.filter:.2f} s, against {self.per_sample:.2f} s per sample per pixel of the render: the denoise costs "
+                f"as much as {samples:.1f} samples per pixel there, where at 48 pixels wide it costs as much as the table's "
+                "*denoise s* over the fitted per-sample seconds.")
+
+
+def full_size_cost(stem: str) -> FullSize:
+    """The seconds of the passes and the filter at `stem`'s own size, and of one sample per pixel of
+    its render (the difference of a 4-spp and a 1-spp render over 3: their fixed cost cancels)."""
+    from renderer.compile import compile_scene
+    from renderer.render import render
+    from renderer.tracing.aux_passes import render_aux
+
+    from rt.denoise import denoise
+    from rt.denoised_files import PASS_SAMPLES
+    from scenefmt.validation import load
+    from tests.renderer.converged import scene_file
+
+    graph = load(scene_file(stem)).graph
+    flat = compile_scene(graph)
+    width, height = graph.image.width, graph.image.pixel_height
+    seconds = {}
+    for spp in (1, 4):
+        started = time.perf_counter()
+        image = render(graph, flat=flat, samples=spp, seed=SEED_BASE, kernel=KERNEL).film.mean()
+        seconds[spp] = time.perf_counter() - started
+    started = time.perf_counter()
+    aux = render_aux(flat, width, height, samples=PASS_SAMPLES)
+    passes = time.perf_counter() - started
+    started = time.perf_counter()
+    denoise(image, aux["albedo"], aux["normal"], clean_aux=True)
+    return FullSize(stem, width, height, (seconds[4] - seconds[1]) / 3, passes, time.perf_counter() - started)
 
 
 def write_doc(lines: list[str], path: Path = DOC) -> None:
@@ -331,6 +380,8 @@ def main(argv=None) -> int:
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--spp", default=",".join(str(s) for s in SPPS), help="samples per pixel, comma-separated")
     parser.add_argument("--seeds", type=int, default=SEEDS, help="renders per scene and sample count (2 or more)")
+    parser.add_argument("--full-size", default=SCENES[0], metavar="SCENE",
+                        help="the scene whose denoise is also timed at its own size ('' for none)")
     parser.add_argument("--write-doc", nargs="?", const=str(DOC), default=None, metavar="PATH",
                         help="write the tables into docs/accuracy.md (or PATH) between the markers")
     args = parser.parse_args(argv)
@@ -339,8 +390,9 @@ def main(argv=None) -> int:
     spps = tuple(int(s) for s in args.spp.split(","))
     started = time.perf_counter()
     rows = study(args.scenes.split(","), spps, args.seeds, progress=lambda line: print(line, flush=True))
+    full = full_size_cost(args.full_size) if args.full_size else None
     seconds = time.perf_counter() - started
-    lines = section(rows, args.seeds, seconds)
+    lines = section(rows, args.seeds, seconds, full)
     print("\n" + "\n".join(lines))
     if args.write_doc:
         write_doc(lines, Path(args.write_doc))

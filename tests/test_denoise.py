@@ -293,7 +293,10 @@ def test_the_benchmark_table_is_generated_from_its_measurements(tmp_path):
     top[:8] = True  # another set of pixels, as the unlit ones are
     unlit = denoise_error.measure("ramp", trials, reference, top, "unlit")
     assert unlit[0].kept == pytest.approx(1 / 3) and unlit[0].raw_error != rows[0].raw_error
-    lines = denoise_error.section(unlit + rows, 4, 1.0)
+    full = denoise_error.FullSize("ramp", 600, 600, per_sample=0.5, passes=1.0, filter=2.0)
+    assert "costs as much as 6.0 samples per pixel there" in full.sentence()
+    lines = denoise_error.section(unlit + rows, 4, 1.0, full)
+    assert full.sentence() in lines[0]
     # The three ways side by side on the unlit pixels, then the shipped way's table per set of pixels.
     side = [line for line in lines if line.startswith("| ramp |")]
     assert side == [f"| ramp | {spp} | {a.raw_error:.4f} | {a.error:.4f} | {b.error:.4f} | {c.error:.4f} |"
@@ -323,7 +326,8 @@ def test_the_benchmark_runs_on_a_tiny_configuration(tmp_path):
     doc = tmp_path / "accuracy.md"
     doc.write_text("# Page\n")
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "denoise_error.py"), "--scenes", "cornell_box",
-                          "--spp", "2,4", "--seeds", "2", "--write-doc", str(doc)], capture_output=True, text=True)
+                          "--spp", "2,4", "--seeds", "2", "--full-size", "", "--write-doc", str(doc)],
+                         capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     text = doc.read_text()
     rows = [line for line in text.splitlines() if line.startswith("| cornell_box (")]
@@ -339,3 +343,16 @@ def test_the_benchmark_runs_on_a_tiny_configuration(tmp_path):
             # Over all pixels the lamp's rim weighs most, which the denoiser does not fix: there
             # it is not asserted.
             assert den < raw
+
+
+def test_the_accuracy_study_keeps_the_denoising_section_when_it_rewrites_the_page():
+    import accuracy
+
+    page = ("# What accuracy costs in time\n\n## How to choose\n\ntext\n\n## Denoising\n\nprose\n\n"
+            f"{denoise_error.BEGIN}\n| table |\n{denoise_error.END}\n\nreading the table\n")
+    assert accuracy.denoising_section(page) == page[page.index("\n## Denoising"):]
+    assert accuracy.denoising_section(page + "\n## Later\n\nmore\n").endswith("reading the table\n\n")
+    assert accuracy.denoising_section("# A page without it\n") == ""
+    # The page as committed has the section, tables and prose after them included.
+    kept = accuracy.denoising_section((ROOT / "docs" / "accuracy.md").read_text())
+    assert denoise_error.BEGIN in kept and denoise_error.END in kept and kept.rstrip().endswith("use the raw image.")

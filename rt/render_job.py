@@ -506,7 +506,10 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
 
             step = "writing"
             estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
-            if opts.denoise:  # after the raw images, which a failure here leaves written
+            # After the raw images, which a failure here leaves written; not after a stop signal, which
+            # asked for what is rendered to be saved, and no more (the passes may take a compile first).
+            denoised = None
+            if opts.denoise and not stop.requested():
                 from .denoised_files import write_denoised
 
                 denoised = write_denoised(opts, film, flat, fail)
@@ -520,7 +523,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)
             raise Stop(exc.status)
     total = time.perf_counter() - started
-    written = ", ".join(str(p) for p in (opts.out, opts.hdr, *opts.denoised, opts.noise_map, opts.samples_map, opts.save_state)
+    extra = opts.denoised if denoised is not None else ()
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, *extra, opts.noise_map, opts.samples_map, opts.save_state)
                         if p is not None)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
@@ -528,8 +532,10 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
         f"({compiling}{fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
-    if opts.denoise:
+    if denoised is not None:
         say(f"denoise: {denoised.sentence()}", err=True)
+    elif opts.denoise:
+        say("denoise: not done, the render was stopped by a signal (the raw images are written)", err=True)
     if film.samples < 2:
         say("noise: not estimated (it takes at least 2 samples per pixel)")
     else:
@@ -554,6 +560,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         say(f"warning: {stats.bad_samples} samples were not finite and were left out (please report this scene)", err=True)
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
+        raise Stop(stop.status)
+    if opts.denoise and denoised is None:  # the signal came after the last pass, before the denoise
         raise Stop(stop.status)
 
 

@@ -182,6 +182,25 @@ def test_rt_render_denoise_writes_the_denoised_images_beside_the_raw_ones(tmp_pa
 
 
 @pytest.mark.slow
+def test_a_render_stopped_by_ctrl_c_keeps_its_raw_image_and_is_not_denoised(tmp_path):
+    import signal
+    import time
+
+    (tmp_path / "ball.yaml").write_text(SMALL.replace("samples_per_pixel: 4", "samples_per_pixel: 1000000"))
+    proc = subprocess.Popen([sys.executable, "-m", "rt", "render", "ball.yaml", "--denoise", "--kernel", "general"],
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline, seen = time.time() + 120, ""
+    while time.time() < deadline and "spp" not in seen:  # the progress bar: passes are running
+        seen += proc.stderr.readline()
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "denoise: not done, the render was stopped by a signal (the raw images are written)" in err
+    assert "wrote ball.png:" in out and "denoised" not in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ball.png", "ball.yaml"]
+
+
+@pytest.mark.slow
 def test_a_batch_denoises_each_scene_beside_its_own_image(tmp_path):
     from typer.testing import CliRunner
 

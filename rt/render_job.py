@@ -600,10 +600,12 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     for scene in scenes:
         stem = "stdin" if str(scene) == "-" else Path(scene).stem
         png = (folder or Path(".")) / f"{stem}{PNG}"
-        key = os.path.abspath(png)
-        if key in seen:
-            raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
-        seen[key] = scene
+        # --denoise's image too: a.yaml's a.denoised.png is a.denoised.yaml's image.
+        for written in (png, *dataclasses.replace(opts, output=png, hdr=None).denoised):
+            key = os.path.abspath(written)
+            if key in seen:
+                raise fail(f"error: {seen[key]} and {scene} would both write {written}: rename one, or render them apart")
+            seen[key] = scene
         hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
         for image in (png, hdr):
             if image is not None and file_key(image) in scene_files:

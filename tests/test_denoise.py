@@ -114,6 +114,27 @@ def test_a_denoised_name_taken_by_another_output_is_refused_before_rendering(tmp
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ball.yaml"]
 
 
+def test_a_batch_refuses_a_scene_whose_image_is_another_ones_denoised_image(tmp_path):
+    from typer.testing import CliRunner
+
+    from rt.cli import app
+
+    for name in ("a", "a.denoised"):
+        (tmp_path / f"{name}.yaml").write_text(SMALL)
+    for order in (("a", "a.denoised"), ("a.denoised", "a")):
+        result = CliRunner().invoke(app, ["render", *(str(tmp_path / f"{n}.yaml") for n in order), "-o", str(tmp_path / "out"),
+                                          "--denoise"])
+        assert result.exit_code == 1
+        assert "would both write" in result.stderr and "a.denoised.png" in result.stderr
+    assert not (tmp_path / "out").exists()
+    # Without --denoise the two write different images.
+    from rt.render_job import RenderOptions, batch_options
+
+    each = batch_options(RenderOptions(scene=Path("a.yaml"), output=tmp_path / "out", dry_run=True),
+                         [tmp_path / "a.yaml", tmp_path / "a.denoised.yaml"])
+    assert [o.out.name for o in each] == ["a.png", "a.denoised.png"]
+
+
 def test_without_pyoidn_the_command_refuses_before_rendering(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 

@@ -140,6 +140,9 @@ class Image:
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
+    - `denoised`: with `rt.render(..., denoise=True)`, Open Image Denoise's version of `array`
+      (height, width, 3) float32, guided by the albedo and normal passes (rt/denoise.py,
+      rt/denoised_files.py; its error is measured in docs/accuracy.md); else None.
     - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
@@ -151,6 +154,7 @@ class Image:
         self.integrator = integrator
         self._array: Optional["np.ndarray"] = None
         self._estimate: Optional["NoiseEstimate"] = None
+        self.denoised: Optional["np.ndarray"] = None  # rt.render(..., denoise=True) sets it
 
     @property
     def array(self) -> "np.ndarray":
@@ -391,6 +395,7 @@ def render(
     should_stop: Optional[Callable[[], bool]] = None,
     cluster: Any = None,
     allow_paths: Iterable[Union[str, Path]] = (),
+    denoise: bool = False,
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -407,6 +412,10 @@ def render(
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
     A Client is used as is and left open; a cluster started for "local" is closed at the end.
+
+    `denoise=True`: also denoise the image with Intel Open Image Denoise (`Image.denoised`, beside
+    the raw `Image.array`); needs the denoise extra, whose absence raises `rt.denoise.DenoiserMissing`
+    (an ImportError) before anything renders; a failure of the filter raises `rt.denoise.DenoiseError`.
 
     Raises `rt.SceneError` (with `.diagnostics`) for an invalid scene and ValueError for an
     invalid option or a scene the renderer cannot use (an image that does not decode).
@@ -437,6 +446,10 @@ def render(
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
+    if denoise:  # before rendering: a render spent for a denoise that cannot run is time lost
+        from .denoise import check_available
+
+        check_available()
 
     overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
@@ -468,5 +481,11 @@ def render(
         if connection is not None:
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
-    return Image(result.film, result.stats, name, frame.integrator)
+    image = Image(result.film, result.stats, name, frame.integrator)
+    if denoise:  # guided by the albedo and normal passes: the image's own where asked for (passes=), else rendered
+        from .denoised_files import guided_denoise
+
+        image.denoised, _ = guided_denoise(image.array, flat, getattr(image, "passes", None))
+        image.denoised.flags.writeable = False
+    return image
 

@@ -305,6 +305,12 @@ def render(
         "see docs/cluster.md.",
     ),
     allow_paths: List[Path] = _ALLOW_OPTION,
+    denoise: bool = typer.Option(
+        False, "--denoise",
+        help="Also write a denoised image beside the raw one (NAME.denoised.png, and beside --hdr), through Intel Open "
+        "Image Denoise guided by albedo and normal passes; the raw images are always written. Needs the denoise extra "
+        "(pip install '.[denoise]' in rt's folder); its error is measured in docs/accuracy.md.",
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -319,7 +325,7 @@ def render(
         time_budget=time_budget, noise=noise, noise_map=noise_map, samples_map=samples_map, adaptive=adaptive,
         save_state=save_state, resume=resume, explain=explain, dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
-        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
+        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths), denoise=denoise,
     )
     try:
         if len(scenes) == 1:

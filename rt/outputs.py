@@ -60,6 +60,7 @@ def needs_exr(path) -> bool:
 def _outputs(opts: "RenderOptions") -> list[tuple[str, Path]]:
     named = [("the image", opts.out), ("--hdr", opts.hdr), ("--noise-map", opts.noise_map), ("--samples-map", opts.samples_map),
              ("--save-state", opts.save_state)]
+    named += [("the denoised image", path) for path in opts.denoised]  # --denoise: beside the PNG and --hdr
     return [(what, path) for what, path in named if path is not None]
 
 

@@ -49,6 +49,7 @@ class RenderOptions:
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
+    denoise: bool = False  # --denoise: also write NAME.denoised.png (and beside --hdr) through rt/denoise.py
 
     @property
     def from_stdin(self) -> bool:
@@ -61,6 +62,15 @@ class RenderOptions:
         if self.output is not None:
             return self.output
         return Path(("stdin" if self.from_stdin else self.scene.stem) + PNG)
+
+    @property
+    def denoised(self) -> tuple[Path, ...]:
+        """The denoised images --denoise writes, beside the PNG and the --hdr image (none without it)."""
+        if not self.denoise:
+            return ()
+        from .denoise import denoised_path
+
+        return tuple(denoised_path(p) for p in (self.out, self.hdr) if p is not None)
 
 
 @dataclass(frozen=True)
@@ -250,6 +260,13 @@ def prepare(opts: RenderOptions) -> PreparedScene:
                 raise fail(f"error: {name} {path}: {EXR_MISSING}")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
+    if opts.denoise and not opts.dry_run:  # refused before rendering: a render spent for nothing otherwise
+        from .denoise import DenoiserMissing, check_available
+
+        try:
+            check_available()
+        except DenoiserMissing as exc:
+            raise fail(f"error: {exc}")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
 
     problem = None if opts.dry_run else output_problem(opts)
@@ -489,6 +506,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
 
             step = "writing"
             estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            # After the raw images, which a failure here leaves written; not after a stop signal, which
+            # asked for what is rendered to be saved, and no more (the passes may take a compile first).
+            denoised = None
+            if opts.denoise and not stop.requested():
+                from .denoised_files import write_denoised
+
+                denoised = write_denoised(opts, film, flat, fail)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
             if exc.first:
@@ -499,13 +523,19 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)
             raise Stop(exc.status)
     total = time.perf_counter() - started
-    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.samples_map, opts.save_state) if p is not None)
+    extra = opts.denoised if denoised is not None else ()
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, *extra, opts.noise_map, opts.samples_map, opts.save_state)
+                        if p is not None)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
         f"({compiling}{fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
+    if denoised is not None:
+        say(f"denoise: {denoised.sentence()}", err=True)
+    elif opts.denoise:
+        say("denoise: not done, the render was stopped by a signal (the raw images are written)", err=True)
     if film.samples < 2:
         say("noise: not estimated (it takes at least 2 samples per pixel)")
     else:
@@ -530,6 +560,8 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         say(f"warning: {stats.bad_samples} samples were not finite and were left out (please report this scene)", err=True)
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
+        raise Stop(stop.status)
+    if opts.denoise and denoised is None:  # the signal came after the last pass, before the denoise
         raise Stop(stop.status)
 
 
@@ -568,10 +600,12 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     for scene in scenes:
         stem = "stdin" if str(scene) == "-" else Path(scene).stem
         png = (folder or Path(".")) / f"{stem}{PNG}"
-        key = os.path.abspath(png)
-        if key in seen:
-            raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
-        seen[key] = scene
+        # --denoise's image too: a.yaml's a.denoised.png is a.denoised.yaml's image.
+        for written in (png, *dataclasses.replace(opts, output=png, hdr=None).denoised):
+            key = os.path.abspath(written)
+            if key in seen:
+                raise fail(f"error: {seen[key]} and {scene} would both write {written}: rename one, or render them apart")
+            seen[key] = scene
         hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
         for image in (png, hdr):
             if image is not None and file_key(image) in scene_files:

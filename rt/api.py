@@ -140,15 +140,20 @@ class Image:
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
+    - `passes`: the render passes asked for with `rt.render(passes=...)`, name -> float32 array
+      (rt/passes.py, docs/passes.md): "albedo" and "normal" (height, width, 3), "depth",
+      "samples" and "error" (height, width); empty if none was asked for.
     - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
 
-    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis"):
+    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis",
+                 passes: Optional[dict] = None):
         self.film = film
         self.stats = stats
         self.name = name
         self.integrator = integrator
+        self.passes: dict = dict(passes or {})
         self._array: Optional["np.ndarray"] = None
         self._estimate: Optional["NoiseEstimate"] = None
 
@@ -391,6 +396,7 @@ def render(
     should_stop: Optional[Callable[[], bool]] = None,
     cluster: Any = None,
     allow_paths: Iterable[Union[str, Path]] = (),
+    passes: Iterable[str] = (),
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -403,6 +409,11 @@ def render(
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
     between passes and ends the render early with what is rendered; `allow_paths`: folders besides
     the scene file's own (the current folder for a dict) that the files it names may be read from.
+
+    `passes`: render passes to return in `Image.passes` (docs/passes.md), any of "albedo",
+    "normal", "depth" (traced after the render by camera rays of their own: the image is the
+    same with or without them; Intel Open Image Denoise's definitions), "samples" (each pixel's
+    count) and "error" (each pixel's standard error); a list or "albedo,normal".
 
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
@@ -437,6 +448,9 @@ def render(
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
+    from .passes import parse_passes
+
+    wanted_passes = parse_passes(passes)  # ValueError for an unknown name, before any rendering
 
     overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
@@ -468,5 +482,11 @@ def render(
         if connection is not None:
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
-    return Image(result.film, result.stats, name, frame.integrator)
+    computed = None
+    if wanted_passes:
+        from .passes import compute_passes
+
+        computed = compute_passes(wanted_passes, flat, result.film, seed=seed if seed is not None else frame.seed,
+                                  notify=notify)
+    return Image(result.film, result.stats, name, frame.integrator, computed)
 

@@ -49,6 +49,8 @@ class RenderOptions:
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
+    passes: tuple[str, ...] = ()  # --passes: render passes to write (rt/passes.py), as given
+    passes_as: Optional[str] = None  # --passes-as: layers (of the --hdr EXR) or files; None: by --hdr
 
     @property
     def from_stdin(self) -> bool:
@@ -61,6 +63,22 @@ class RenderOptions:
         if self.output is not None:
             return self.output
         return Path(("stdin" if self.from_stdin else self.scene.stem) + PNG)
+
+    @property
+    def pass_outputs(self) -> list[tuple[str, Path]]:
+        """(pass, file) of each pass written as a file of its own; none when they are layers of
+        the --hdr EXR, or when --passes is not valid (which `prepare` reports)."""
+        if not self.passes:
+            return []
+        from .passes import layout_of, parse_passes, pass_files
+
+        try:
+            names = parse_passes(self.passes)
+            if layout_of(self.passes_as, self.hdr) != "files":
+                return []
+        except ValueError:
+            return []
+        return pass_files(self.out, names, self.hdr)
 
 
 @dataclass(frozen=True)
@@ -248,6 +266,17 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
             if not exr_available():
                 raise fail(f"error: {name} {path}: {EXR_MISSING}")
+    if opts.passes:
+        from .passes import layout_of, parse_passes
+
+        try:
+            parse_passes(opts.passes)
+            layout_of(opts.passes_as, opts.hdr)
+        except ValueError as exc:
+            raise fail(f"error: --passes: {exc}")
+    elif opts.passes_as is not None:
+        raise fail("error: --passes-as says how the passes are written: name them with --passes too "
+                   "(such as --passes albedo,normal)")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
@@ -487,8 +516,12 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 raise Stop(stop.status)
             from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
+            passes, passes_failed = None, None
+            if opts.passes:
+                step = "passes"
+                passes, passes_failed = compute_passes_for(opts, scene, film, bar.notify)
             step = "writing"
-            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail, passes)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
             if exc.first:
@@ -500,6 +533,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
             raise Stop(exc.status)
     total = time.perf_counter() - started
     written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.samples_map, opts.save_state) if p is not None)
+    if passes:
+        from .passes import layout_of
+
+        if layout_of(opts.passes_as, opts.hdr) == "layers":
+            written = written.replace(str(opts.hdr), f"{opts.hdr} (with the layers {', '.join(passes)})", 1)
+        else:
+            written += "".join(f", {path}" for _, path in opts.pass_outputs)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
@@ -531,6 +571,25 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
         raise Stop(stop.status)
+    if passes_failed is not None:
+        raise fail(passes_failed)
+
+
+def compute_passes_for(opts: RenderOptions, scene: PreparedScene, film, notify) -> tuple[Optional[dict], Optional[str]]:
+    """--passes of a finished render: (the passes, None), or (None, the error line) if they could
+    not be computed, in which case the other outputs are still written and the command fails
+    after them (the render is never lost to its passes)."""
+    from .passes import compute_passes
+
+    seed = opts.seed if opts.seed is not None else scene.frame.seed
+    try:
+        return compute_passes(opts.passes, scene.flat, film, seed=seed, notify=notify), None
+    except MemoryError as exc:
+        from scenefmt.assets import memory_message
+
+        return None, f"error: --passes: {memory_message(exc, 'compute the passes')}; the other files are written"
+    except ValueError as exc:
+        return None, f"error: --passes: {exc}; the other files are written"
 
 
 def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:

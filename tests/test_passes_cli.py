@@ -221,3 +221,20 @@ def test_the_api_returns_the_passes_as_arrays_and_the_same_image():
     assert (image.passes["samples"] == 4).all()
     with pytest.raises(ValueError, match="did you mean 'depth'"):
         api.render(PLANE, kernel="general", passes=["dpeth"])
+
+
+@pytest.mark.slow
+def test_passes_of_a_cluster_render_are_traced_here_and_match_a_local_one(tmp_path):
+    pytest.importorskip("dask.distributed")
+    scene = tmp_path / "plane.json"
+    scene.write_text(json.dumps(PLANE))
+    args = ("--kernel", "general", "--passes", "albedo,depth,samples", "--passes-as", "files")
+    local = rt("render", str(scene), "-o", "l.png", "--hdr", "l.pfm", *args, cwd=tmp_path)
+    assert local.returncode == 0, local.stderr
+    far = rt("render", str(scene), "-o", "c.png", "--hdr", "c.pfm", *args, "--cluster", "local", cwd=tmp_path)
+    assert far.returncode == 0, far.stderr
+    assert "Traceback" not in far.stderr
+    assert (tmp_path / "c.pfm").read_bytes() == (tmp_path / "l.pfm").read_bytes()
+    for name in ("albedo", "depth", "samples"):
+        assert (tmp_path / f"c.{name}.pfm").read_bytes() == (tmp_path / f"l.{name}.pfm").read_bytes(), name
+    assert (read_pfm(tmp_path / "c.samples.pfm") == 4.0).all()

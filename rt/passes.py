@@ -43,12 +43,14 @@ def _listing() -> str:
     return ", ".join(PASS_NAMES[:-1]) + " and " + PASS_NAMES[-1]
 
 
-def parse_passes(names: Union[str, Iterable[str]]) -> tuple[str, ...]:
+def parse_passes(names: Union[None, str, Iterable[str]]) -> tuple[str, ...]:
     """The passes asked for, in PASS_NAMES' order, each once: `names` is a comma-separated list
     ("albedo,normal") or an iterable of names. ValueError, one sentence with a did-you-mean, for
     an unknown or empty one."""
     from scenefmt.diagnostics import did_you_mean, quote_text
 
+    if names is None:
+        return ()
     if isinstance(names, str):
         names = names.split(",")
     wanted = []

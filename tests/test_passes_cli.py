@@ -212,10 +212,12 @@ def test_the_api_returns_the_passes_as_arrays_and_the_same_image():
     import rt as api
 
     plain = api.render(PLANE, kernel="general")
-    image = api.render(PLANE, kernel="general", passes=("normal", "samples"))
+    image = api.render(PLANE, kernel="general", passes=("normal", "samples", "error"))
     assert np.array_equal(image.array, plain.array)
     assert plain.passes == {}
-    assert sorted(image.passes) == ["normal", "samples"]
+    assert sorted(image.passes) == ["error", "normal", "samples"]
+    # The error pass is the noise map, as float32.
+    assert np.array_equal(image.passes["error"], image.noise_map.astype(np.float32))
     assert image.passes["normal"].shape == (12, 12, 3) and image.passes["normal"].dtype == np.float32
     np.testing.assert_allclose(image.passes["normal"], np.broadcast_to((0, 0, 1), (12, 12, 3)), atol=1e-6)
     assert (image.passes["samples"] == 4).all()

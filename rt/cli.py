@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 from enum import Enum
 from pathlib import Path
@@ -384,6 +385,53 @@ def schema(
     else:
         output.write_text(text, encoding="utf-8")
         typer.echo(f"wrote {output}", err=True)
+
+
+@app.command(
+    "import",
+    epilog="Example: rt import chair.glb -o chair.yaml, then rt render chair.yaml -o chair.png; "
+    "rt import chair.glb -o chair_part.yaml --part for a file another scene can include:",
+)
+def import_model(
+    model: Path = typer.Argument(..., help="The glTF 2.0 model: a .glb file, or a .gltf file with its .bin and image files.",
+                                 show_default=False),
+    output: Path = typer.Option(..., "--output", "-o", help="The scene file to write (.yaml); meshes and images go in "
+                                "<its stem>_assets/ beside it.", show_default=False),
+    part: bool = typer.Option(False, "--part", help="Write only what an included file may hold (textures, materials, "
+                              "groups, shapes): no camera, image, background or lights."),
+    prefix: Optional[str] = typer.Option(None, "--prefix", help="Put this before every name the file defines (default: "
+                                         "the output's stem and _), so that several imported models can be included together."),
+    width: int = typer.Option(640, "--width", min=1, max=16384, help="Image width written in the scene."),
+    spp: int = typer.Option(64, "--spp", min=1, max=1_000_000, help="Samples per pixel written in the scene."),
+    lumens_per_watt: float = typer.Option(
+        683.0, "--lumens-per-watt", help="Divides KHR_lights_punctual's photometric intensities (candela, lux) into "
+        "rt's W/sr and W/m^2; 1 takes them as radiometric already."),
+    force: bool = typer.Option(False, "--force", help="Replace the scene file and its assets folder if they exist."),
+) -> None:
+    """Import a glTF 2.0 model as a scene file: meshes as PLY files, materials as principled materials,
+    textures as image files, node transforms and instancing, cameras and KHR_lights_punctual lights.
+    Needs the gltf extra: pip install '.[gltf]' in rt's folder (docs/import.md)."""
+    from scenefmt.diagnostics import escape_control
+    from scenefmt.gltf_read import GltfProblem
+
+    if prefix is not None and not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-]{0,23}|", prefix):
+        typer.echo("error: --prefix must start with a letter or _ and hold at most 24 letters, digits, _ or -", err=True)
+        raise typer.Exit(2)
+    try:
+        from rt.importing import import_gltf
+
+        result = import_gltf(model, output, part=part, prefix=prefix, width=width, samples=spp,
+                             lumens_per_watt=lumens_per_watt, force=force)
+    except GltfProblem as exc:
+        typer.echo(escape_control(f"error: {model.name}: {exc}"), err=True)
+        raise typer.Exit(1)
+    except MemoryError:
+        typer.echo(escape_control(f"error: {model.name}: not enough memory to import it"), err=True)
+        raise typer.Exit(1)
+    for line in result.warnings:
+        typer.echo(escape_control(f"warning: ignored: {line}"), err=True)
+    typer.echo(escape_control(f"wrote {result.scene} ({result.meshes} mesh file(s), {result.triangles:,} triangles, "
+                              f"{result.images} image file(s) in {result.assets.name}/)"))
 
 
 if __name__ == "__main__":

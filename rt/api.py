@@ -140,6 +140,9 @@ class Image:
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
+    - `passes`: the render passes asked for with `rt.render(passes=...)`, name -> float32 array
+      (rt/passes.py, docs/passes.md): "albedo" and "normal" (height, width, 3), "depth",
+      "samples" and "error" (height, width); empty if none was asked for.
     - `denoised`: with `rt.render(..., denoise=True)`, Open Image Denoise's version of `array`
       (height, width, 3) float32, guided by the albedo and normal passes (rt/denoise.py,
       rt/denoised_files.py; its error is measured in docs/accuracy.md); else None.
@@ -147,11 +150,13 @@ class Image:
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
 
-    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis"):
+    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis",
+                 passes: Optional[dict] = None):
         self.film = film
         self.stats = stats
         self.name = name
         self.integrator = integrator
+        self.passes: dict = dict(passes or {})
         self._array: Optional["np.ndarray"] = None
         self._estimate: Optional["NoiseEstimate"] = None
         self.denoised: Optional["np.ndarray"] = None  # rt.render(..., denoise=True) sets it
@@ -396,6 +401,7 @@ def render(
     cluster: Any = None,
     allow_paths: Iterable[Union[str, Path]] = (),
     denoise: bool = False,
+    passes: Iterable[str] = (),
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -408,6 +414,11 @@ def render(
     progress bar on standard error (or pass a function of `RenderStats`); `should_stop` is polled
     between passes and ends the render early with what is rendered; `allow_paths`: folders besides
     the scene file's own (the current folder for a dict) that the files it names may be read from.
+
+    `passes`: render passes to return in `Image.passes` (docs/passes.md), any of "albedo",
+    "normal", "depth" (traced after the render by camera rays of their own: the image is the
+    same with or without them; Intel Open Image Denoise's definitions), "samples" (each pixel's
+    count) and "error" (each pixel's standard error); a list or "albedo,normal".
 
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
@@ -450,6 +461,9 @@ def render(
         from .denoise import check_available
 
         check_available()
+    from .passes import parse_passes
+
+    wanted_passes = parse_passes(passes)  # ValueError for an unknown name, before any rendering
 
     overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
@@ -481,11 +495,17 @@ def render(
         if connection is not None:
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
-    image = Image(result.film, result.stats, name, frame.integrator)
+    computed = None
+    if wanted_passes:
+        from .passes import compute_passes
+
+        computed = compute_passes(wanted_passes, flat, result.film, seed=seed if seed is not None else frame.seed,
+                                  notify=notify)
+    image = Image(result.film, result.stats, name, frame.integrator, computed)
     if denoise:  # guided by the albedo and normal passes: the image's own where asked for (passes=), else rendered
         from .denoised_files import guided_denoise
 
-        image.denoised, _ = guided_denoise(image.array, flat, getattr(image, "passes", None))
+        image.denoised, _ = guided_denoise(image.array, flat, image.passes)
         image.denoised.flags.writeable = False
     return image
 

@@ -63,9 +63,10 @@ def guided_denoise(image, flat, passes=None):
     return out, Denoised(("albedo", "normal"), pass_seconds, time.perf_counter() - started)
 
 
-def write_denoised(opts: "RenderOptions", film: "Film", flat, fail: Callable[[str], Exception]) -> Denoised:
+def write_denoised(opts: "RenderOptions", film: "Film", flat, fail: Callable[[str], Exception], passes=None) -> Denoised:
     """Denoise `film`'s image (a render of `flat`) and write the files of `opts.denoised`; on a
-    failure raise `fail(message)`, the raw images staying as written."""
+    failure raise `fail(message)`, the raw images staying as written. `passes`: those --passes
+    computed (their albedo and normal are reused), or None."""
     from renderer.film import write_image
     from scenefmt.files import describe_os_error
 
@@ -74,7 +75,7 @@ def write_denoised(opts: "RenderOptions", film: "Film", flat, fail: Callable[[st
     written = [str(p) for p in (opts.out, opts.hdr) if p is not None]
     raw = f"the raw image {written[0]} is written" if len(written) == 1 else f"the raw images {' and '.join(written)} are written"
     try:
-        image, done = guided_denoise(film.mean(), flat)
+        image, done = guided_denoise(film.mean(), flat, passes)
     except (DenoiseError, DenoiserMissing) as exc:
         raise fail(f"error: --denoise: {exc}; {raw}")
     except MemoryError:  # the passes' three images, or the filter's own buffers

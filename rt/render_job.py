@@ -50,6 +50,8 @@ class RenderOptions:
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
     denoise: bool = False  # --denoise: also write NAME.denoised.png (and beside --hdr) through rt/denoise.py
+    passes: tuple[str, ...] = ()  # --passes: render passes to write (rt/passes.py), as given
+    passes_as: Optional[str] = None  # --passes-as: layers (of the --hdr EXR) or files; None: by --hdr
 
     @property
     def from_stdin(self) -> bool:
@@ -71,6 +73,22 @@ class RenderOptions:
         from .denoise import denoised_path
 
         return tuple(denoised_path(p) for p in (self.out, self.hdr) if p is not None)
+
+    @property
+    def pass_outputs(self) -> list[tuple[str, Path]]:
+        """(pass, file) of each pass written as a file of its own; none when they are layers of
+        the --hdr EXR, or when --passes is not valid (which `prepare` reports)."""
+        if not self.passes:
+            return []
+        from .passes import layout_of, parse_passes, pass_files
+
+        try:
+            names = parse_passes(self.passes)
+            if layout_of(self.passes_as, self.hdr) != "files":
+                return []
+        except ValueError:
+            return []
+        return pass_files(self.out, names, self.hdr)
 
 
 @dataclass(frozen=True)
@@ -258,6 +276,17 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
             if not exr_available():
                 raise fail(f"error: {name} {path}: {EXR_MISSING}")
+    if opts.passes:
+        from .passes import layout_of, parse_passes
+
+        try:
+            parse_passes(opts.passes)
+            layout_of(opts.passes_as, opts.hdr)
+        except ValueError as exc:
+            raise fail(f"error: --passes: {exc}")
+    elif opts.passes_as is not None:
+        raise fail("error: --passes-as says how the passes are written: name them with --passes too "
+                   "(such as --passes albedo,normal)")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
     if opts.denoise and not opts.dry_run:  # refused before rendering: a render spent for nothing otherwise
@@ -504,15 +533,19 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 raise Stop(stop.status)
             from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
+            passes, passes_failed = None, None
+            if opts.passes:
+                step = "passes"
+                passes, passes_failed = compute_passes_for(opts, scene, film, bar.notify)
             step = "writing"
-            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail, passes)
             # After the raw images, which a failure here leaves written; not after a stop signal, which
             # asked for what is rendered to be saved, and no more (the passes may take a compile first).
             denoised = None
             if opts.denoise and not stop.requested():
                 from .denoised_files import write_denoised
 
-                denoised = write_denoised(opts, film, flat, fail)
+                denoised = write_denoised(opts, film, flat, fail, passes)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
             if exc.first:
@@ -526,6 +559,13 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     extra = opts.denoised if denoised is not None else ()
     written = ", ".join(str(p) for p in (opts.out, opts.hdr, *extra, opts.noise_map, opts.samples_map, opts.save_state)
                         if p is not None)
+    if passes:
+        from .passes import layout_of
+
+        if layout_of(opts.passes_as, opts.hdr) == "layers":
+            written = written.replace(str(opts.hdr), f"{opts.hdr} (with the layers {', '.join(passes)})", 1)
+        else:
+            written += "".join(f", {path}" for _, path in opts.pass_outputs)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
@@ -563,6 +603,25 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
         raise Stop(stop.status)
     if opts.denoise and denoised is None:  # the signal came after the last pass, before the denoise
         raise Stop(stop.status)
+    if passes_failed is not None:
+        raise fail(passes_failed)
+
+
+def compute_passes_for(opts: RenderOptions, scene: PreparedScene, film, notify) -> tuple[Optional[dict], Optional[str]]:
+    """--passes of a finished render: (the passes, None), or (None, the error line) if they could
+    not be computed, in which case the other outputs are still written and the command fails
+    after them (the render is never lost to its passes)."""
+    from .passes import compute_passes
+
+    seed = opts.seed if opts.seed is not None else scene.frame.seed
+    try:
+        return compute_passes(opts.passes, scene.flat, film, seed=seed, notify=notify), None
+    except MemoryError as exc:
+        from scenefmt.assets import memory_message
+
+        return None, f"error: --passes: {memory_message(exc, 'compute the passes')}; the other files are written"
+    except ValueError as exc:
+        return None, f"error: --passes: {exc}; the other files are written"
 
 
 def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:

@@ -216,11 +216,13 @@ def write_png(path: Path, linear: np.ndarray, display: str = "gamma2", text: Opt
 
 
 def write_pfm(path: Path, linear: np.ndarray) -> None:
-    """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR tools)."""
-    if linear.ndim != 3 or linear.shape[2] != 3:
+    """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR
+    tools); an (height, width) array is written as a grey one ("Pf", one channel: a render pass)."""
+    grey = linear.ndim == 2
+    if not grey and (linear.ndim != 3 or linear.shape[2] != 3):
         raise ValueError(f"expected an (height, width, 3) image, found shape {linear.shape}")
     h, w = linear.shape[:2]
-    header = f"PF\n{w} {h}\n-1.0\n".encode("ascii")
+    header = f"{'Pf' if grey else 'PF'}\n{w} {h}\n-1.0\n".encode("ascii")
     data = np.ascontiguousarray(linear[::-1].astype("<f4"))
     _atomic_write(path, lambda fh: (fh.write(header), fh.write(data.tobytes())))
 
@@ -233,15 +235,35 @@ def write_exr(path: Path, linear: np.ndarray) -> None:
     _atomic_write(path, lambda fh: fh.write(data))
 
 
+def write_exr_layers(path: Path, linear: np.ndarray, layers: dict) -> None:
+    """OpenEXR as `write_exr`, with extra channels beside R, G and B: `layers` maps a full channel
+    name ("albedo.R", "depth.Z") to an (height, width) array (scenefmt.hdr_files.exr_layers_bytes)."""
+    from scenefmt.hdr_files import exr_layers_bytes
+
+    data = exr_layers_bytes(linear, layers)  # encoded in memory first: a failure leaves no file behind
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
+def write_exr_channels(path: Path, channels: dict) -> None:
+    """OpenEXR of named (height, width) float channels ("R", "Y", ...), written atomically."""
+    from scenefmt.hdr_files import exr_channels_bytes
+
+    data = exr_channels_bytes(channels)
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
 def read_pfm(path: Path) -> np.ndarray:
-    """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom)."""
+    """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom); (h, w)
+    for a grey one ("Pf")."""
     raw = Path(path).read_bytes()
     parts = raw.split(b"\n", 3)
-    if parts[0] != b"PF":
-        raise ValueError(f"{path}: not a colour PFM file")
+    if parts[0] not in (b"PF", b"Pf"):
+        raise ValueError(f"{path}: not a PFM file")
     w, h = (int(x) for x in parts[1].split())
     scale = float(parts[2])
     dtype = "<f4" if scale < 0 else ">f4"
+    if parts[0] == b"Pf":
+        return np.frombuffer(parts[3], dtype=dtype, count=w * h).reshape(h, w)[::-1].astype(np.float64)
     return np.frombuffer(parts[3], dtype=dtype, count=w * h * 3).reshape(h, w, 3)[::-1].astype(np.float64)
 
 

@@ -314,6 +314,24 @@ def render(
         "see docs/cluster.md.",
     ),
     allow_paths: List[Path] = _ALLOW_OPTION,
+    denoise: bool = typer.Option(
+        False, "--denoise",
+        help="Also write a denoised image beside the raw one (NAME.denoised.png, and beside --hdr), through Intel Open "
+        "Image Denoise guided by albedo and normal passes; the raw images are always written. Needs the denoise extra "
+        "(pip install '.[denoise]' in rt's folder); its error is measured in docs/accuracy.md.",
+    ),
+    passes: Optional[str] = typer.Option(
+        None, "--passes", metavar="albedo,normal,depth,samples,error",
+        help="Also write render passes: albedo, normal (world space) and depth (along the view axis), traced after the "
+        "render by rays of their own as Intel Open Image Denoise defines its auxiliary images (the image is unchanged); "
+        "samples (each pixel's count) and error (each pixel's standard error). See docs/passes.md.",
+    ),
+    passes_as: Optional[str] = typer.Option(
+        None, "--passes-as", metavar="layers|files",
+        help="How --passes are written: layers of the --hdr OpenEXR image (channels albedo.R, normal.X, depth.Z, ...; "
+        "the default with --hdr NAME.exr) or files beside the image, NAME.<pass>.exr with --hdr .exr, else .pfm (the "
+        "default otherwise).",
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -328,7 +346,9 @@ def render(
         time_budget=time_budget, noise=noise, noise_map=noise_map, samples_map=samples_map, adaptive=adaptive,
         save_state=save_state, resume=resume, explain=explain, dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
-        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths), display=display,
+        syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
+        passes=tuple(passes.split(",")) if passes is not None else (), passes_as=passes_as, denoise=denoise,
+        display=display,
     )
     try:
         if len(scenes) == 1:

@@ -196,7 +196,7 @@ def test_linear_files_ignore_the_transform_and_maps_say_what_they_record(tmp_pat
     film = Film(linear * 4, linear * linear * 8 + 0.01, 4)
     opts = RenderOptions(scene=Path("s.yaml"), output=tmp_path / "a.png", noise_map=tmp_path / "n.png",
                          samples_map=tmp_path / "c.png", hdr=tmp_path / "h.pfm", exposure=1.0)
-    write_outputs(opts, film, None, RuntimeError, "aces")
+    write_outputs(opts, film, None, RuntimeError, display="aces")
     pixels, text = decoded((tmp_path / "a.png").read_bytes())
     assert text["rt:display"] == "aces" and text["rt:exposure"] == "1"
     assert np.array_equal(pixels, display.aces(film.mean() * 2.0))  # exposure first, then the transform

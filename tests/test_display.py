@@ -313,3 +313,15 @@ def test_rt_validate_names_a_display_other_than_the_books():
     assert "seed 0, integrator mis, display srgb; background sky" in done.output
     done = CliRunner().invoke(app, ["validate", "-"], input=scene.replace(", display: srgb", ""))
     assert "integrator mis; background sky" in done.output
+
+
+@pytest.mark.slow
+def test_rt_render_denoise_makes_the_denoised_png_with_the_same_display(tmp_path):
+    pytest.importorskip("pyoidn")
+    (tmp_path / "s.yaml").write_text(SMALL)
+    done = run_rt("render", "s.yaml", "--display", "agx", "--denoise", "--kernel", "general", "-o", "s.png", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    raw, raw_text = decoded((tmp_path / "s.png").read_bytes())
+    denoised, text = decoded((tmp_path / "s.denoised.png").read_bytes())
+    assert raw_text["rt:display"] == text["rt:display"] == "agx"
+    assert denoised.shape == raw.shape and denoised.max() > 0

@@ -27,7 +27,7 @@ from typing import Optional
 import numpy as np
 
 from .diagnostics import did_you_mean, key_shown, quote_key, quote_text  # never a line of the file: it may be anything
-from .files import FileProblem, open_regular_file
+from .files import FileProblem, LineProblem, open_regular_file
 
 # Largest mesh file read, whatever the memory: beyond it the budget below decides first anyway.
 MAX_MESH_BYTES = 4 << 30
@@ -52,16 +52,8 @@ _OBJ_IGNORED = {
 SUFFIXES = (".obj", ".ply")
 
 
-class MeshProblem(Exception):
+class MeshProblem(LineProblem):
     """A mesh file cannot be used; `line` is the 1-based line (OBJ) where one is known."""
-
-    def __init__(self, message: str, line: Optional[int] = None):
-        super().__init__(message)
-        self.message = message
-        self.line = line
-
-    def __str__(self) -> str:
-        return f"line {self.line}: {self.message}" if self.line is not None else self.message
 
 
 @dataclass

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 from .diagnostics import key_shown, quote_key
-from .files import FileProblem, read_regular_file
+from .files import FileProblem, LineProblem, read_regular_file
 
 # Bounds on a library: a real one is kilobytes with tens of entries.
 MAX_MTL_BYTES = 8 << 20
@@ -84,16 +84,8 @@ _MAP_OPTIONS = {"-blendu": 1, "-blendv": 1, "-boost": 1, "-mm": 2, "-o": 3, "-s"
                 "-clamp": 1, "-bm": 1, "-imfchan": 1, "-type": 1, "-cc": 1}
 
 
-class MtlProblem(Exception):
+class MtlProblem(LineProblem):
     """A material library cannot be used; `line` is the 1-based line where one is known."""
-
-    def __init__(self, message: str, line: Optional[int] = None):
-        super().__init__(message)
-        self.message = message
-        self.line = line
-
-    def __str__(self) -> str:
-        return f"line {self.line}: {self.message}" if self.line is not None else self.message
 
 
 @dataclass

@@ -33,14 +33,13 @@ import numpy as np
 
 from .. import target
 from ..camera import CAM_DU, CAM_DV, CAM_ORIGIN, CAM_PIXEL00, camera_ray
-from ..kernel_flags import EMITTERS, INSTANCES, SURFACE_MAPS
+from ..kernel_flags import EMITTERS, SURFACE_MAPS
 from ..materials import (MICROFACETS, NO_TANGENT, emits, emitted_at, has_density, has_shading_map,
                          is_anisotropic, is_zero, material_at, reads_uv, sample_bsdf, scatters, shading_frame)
 from ..numerics.rng import bounce_dim, sample_key
-from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
+from ..numerics.vec import dot, neg, sub
 from ..sampling import SAMPLER_INDEPENDENT
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
-from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction, world_derivatives
 from .traverse import intersect_scene, traversal_scratch
 
 # The most perfect specular vertices a sample follows before it takes the albedo and normal of
@@ -94,16 +93,7 @@ def aux_sample(S, key, o, d, time, axis, stack, tstack):
         maps = has_shading_map(S.mat_i, mat)
         want_uv = reads_uv(S.mat_i, mat) or maps
         # The surface in world space, as the path tracer finds it (tracing/integrator.trace).
-        if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
-            oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
-            dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-            po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
-            p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
-            n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
-            n_tree = no
-        else:
-            p, n, u, v = interaction(S, prim, o, d, t, time, want_uv)
-            n_tree = n
+        p, n, u, v, n_tree = world_interaction(S, prim, inst, o, d, t, time, want_uv, volume)
         if bounce == 0:
             hit = True
             depth = dot(sub(p, lens), axis)

@@ -5,11 +5,11 @@ import math
 import numpy as np
 
 from .. import target
-from ..camera import camera_ray
+from ..camera import camera_ray_at
 from ..flat import INTEGRATOR_CAUSTICS, INTEGRATOR_GUIDED, INTEGRATOR_MIS
 from ..guide_records import RECORDS_PER_PATH, add_to_records, no_records, open_record
 from ..guiding import guide_leaf, pdf_guide, sample_guide
-from ..kernel_flags import CAUSTICS, GUIDING, INSTANCES, SURFACE_MAPS
+from ..kernel_flags import CAUSTICS, GUIDING, INSTANCES, MOTION, SURFACE_MAPS
 from ..lights import bsdf_weight, light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
@@ -18,7 +18,8 @@ from ..config import BATCHES
 from ..film_sums import add_sample
 from ..numerics.rng import bounce_dim, guide_dim, light_dim, sample_key, uniform
 from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
+from ..motion import moves
+from ..shapes.dispatch import hit_material, interaction, is_volume, moving_interaction, spawn_origin, world_derivatives
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from .shadow import transmittance
 from .traverse import intersect_scene, traversal_scratch
@@ -89,7 +90,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
     for bounce in range(max_depth):
         rays += 1
         t, prim, inst = intersect_scene(
-            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
@@ -110,7 +111,9 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         maps = has_shading_map(S.mat_i, mat)
         # (u, v) only where the material's texture reads it (an image) or a map does: see surface().
         want_uv = reads_uv(S.mat_i, mat) or maps
-        if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
+        if MOTION and INSTANCES and not volume and moves(S.inst_i, inst):
+            p, n, u, v, n_tree = moving_interaction(S, prim, inst, o, d, t, time, want_uv)
+        elif INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
             oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
             dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
             po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
@@ -151,12 +154,12 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         n_shade = n_front
         # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
         if SURFACE_MAPS and maps:
-            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
             n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
         elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
             # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
             # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
-            tangent, _ = world_derivatives(S, prim, inst, n_tree)
+            tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
         # Whether the vertex has a part with a density: asked only where light sampling, guiding or the
         # caustic split reads it (the books' path tracer never does).
         dense = mis and has_density(S.mat_i, mat, params)
@@ -295,7 +298,7 @@ def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_dept
     adaptive = sampling.threshold > 0.0
     for s in range(sample_start, sample_start + sample_count):
         key = sample_key(seed, pixel, s, sampling.sampler)
-        o, d, time = camera_ray(S.camera, i, j, key)
+        o, d, time = camera_ray_at(S.camera, S.motion_f, i, j, key)
         # A training pass's records of this path (guide_records.py): RECORDS_PER_PATH rows from
         # rec_row on for the pixel's first sample; rec is empty in a render.
         r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec,

@@ -26,7 +26,7 @@ def _shading_at(S, origins, dirs, stack, tstack):
     for k in range(origins.shape[0]):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+        t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
                                         S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, 0.0, math.inf, 0.0, independent_key(1), 0,
                                         stack, tstack)
         if prim < 0:

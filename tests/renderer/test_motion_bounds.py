@@ -94,3 +94,20 @@ def test_bounds_are_tight_for_a_slide():
     lo, hi = motion_bounds(rows, (0, 0, 0), (1, 1, 1))
     assert np.allclose(lo, (0, 0, 0), atol=0.05) and np.allclose(hi, (6, 1, 1), atol=0.05)
     assert (lo <= 0).all() and (hi >= (6, 1, 1)).all()
+
+
+@pytest.mark.parametrize("stem", ["bouncing_spheres", "final_scene", "cornell_knot"])
+def test_the_books_moving_spheres_and_still_scenes_flatten_no_keyframes(stem):
+    """Pay only for what is used: the books' moving spheres keep their own rows, and no instance
+    or camera of a scene without `motion:` names a keyframe."""
+    from pathlib import Path
+
+    from renderer.camera import CAM_FIRST_KEY, CAM_KEYS
+    from renderer.compile import compile_scene
+    from renderer.trees import INST_FIRST_KEY, INST_KEYS
+    from scenefmt.validation import load
+
+    flat = compile_scene(load(Path(__file__).resolve().parents[2] / "scenes" / f"{stem}.yaml").graph)
+    assert flat.motion_f.shape[0] == 0
+    assert (flat.inst_i[:, INST_KEYS] == 0).all() and (flat.inst_i[:, INST_FIRST_KEY] == -1).all()
+    assert flat.camera[CAM_KEYS] == 0 and flat.camera[CAM_FIRST_KEY] == -1

@@ -90,8 +90,8 @@ from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
-from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
-from .motion import area_ratio_of, instance_maps, map_normal, map_point, moves
+from .trees import INST_FIRST_KEY, INST_KEYS, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
+from .motion import area_ratio_of, instance_maps, map_normal, map_point, moves, uniform_stretch
 
 # What a light placed by an instance that does not move reads in place of a moving one's maps.
 NO_MAPS = ((0.0,) * 12, (0.0,) * 12)
@@ -261,6 +261,16 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     gram = np.einsum("kij,kil->kjl", lin, lin)
     scale2 = np.trace(gram, axis1=1, axis2=2) / 3.0
     similar = np.all(np.abs(gram - scale2[:, None, None] * np.eye(3)) <= 1e-9 * scale2[:, None, None], axis=(1, 2))
+    # On a moving instance a light keeps its cone or rectangle only if every map of its motion is
+    # a similarity, as the one at the shutter's opening (inst_f) is: every keyframe's stretch a
+    # uniform scale (then the stretches between them are too).
+    moving = np.flatnonzero(flat.inst_i[:, INST_KEYS] > 0)
+    if len(moving):
+        still_similar = np.ones(len(flat.inst_i), np.bool_)
+        for k in moving:
+            first = flat.inst_i[k, INST_FIRST_KEY]
+            still_similar[k] = uniform_stretch(flat.motion_f[first:first + flat.inst_i[k, INST_KEYS]])
+        similar &= still_similar[inst]
     area, u, v, corner = surface_records(kind, prim, flat)
     cone = ((kind == SPHERE) | (kind == MOVING_SPHERE)) & similar
     rectangle = (kind == QUAD) & rectangular(u, v) & similar

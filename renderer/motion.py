@@ -135,6 +135,14 @@ def map_at_numpy(rows: np.ndarray, time: float) -> np.ndarray:
     return m
 
 
+def uniform_stretch(rows: np.ndarray) -> bool:
+    """Whether every keyframe's stretch is a uniform scale s I (within 1e-9 of its size): then
+    every map of the motion is a similarity, and a sphere stays a sphere, a rectangle a rectangle."""
+    s = rows[:, KEY_S:KEY_S + 9].reshape(-1, 3, 3)
+    scale = np.trace(s, axis1=1, axis2=2) / 3.0
+    return bool(np.all(np.abs(s - scale[:, None, None] * np.eye(3)) <= 1e-9 * np.abs(scale)[:, None, None]))
+
+
 def motion_bounds(rows: np.ndarray, lo, hi, samples: int = BOUND_SAMPLES) -> tuple[np.ndarray, np.ndarray]:
     """A world box holding the object box lo..hi under every map of the keyframes `rows`, at
     every time: the box of its 8 corners at `samples` + 1 times per interval, padded.

@@ -173,6 +173,24 @@ def test_a_moving_light_is_sampled_where_it_is_at_the_paths_time():
     regions_agree(mis, path)
 
 
+def test_a_lamp_stretched_as_it_moves_is_sampled_by_area_not_by_its_cone():
+    """A spherical lamp that is round when the shutter opens and stretched when it closes is no
+    sphere in between: its light samples are drawn by area (a cone would be biased), and mis
+    still converges to the books' estimator."""
+    lamp = ("  - {type: sphere, center: [0, 0, 0], radius: 0.3, material: lamp, motion: [{time: 0, transform: "
+            "[{translate: [-1, 2.2, 0]}]}, {time: 1, transform: [{scale: [2.5, 0.5, 1]}, {translate: [1, 2.0, 0]}]}]}\n")
+    text = MOVING_LAMP.replace("shapes:\n  - {type: quad, q: [-0.5, 2.5, -0.5]", "shapes:\n" + lamp + "  - {type: quad, q: [-0.5, 2.5, -0.5]", 1)
+    flat = compile_scene(loads(text).graph)
+    from renderer.light_table import BY_AREA, LIGHT_PRIMITIVE, LIGHT_STRATEGY
+    from renderer.shapes import PRIM_KIND, SPHERE
+
+    spheres = flat.prims_i[flat.light_i[:, LIGHT_PRIMITIVE], PRIM_KIND] == SPHERE
+    assert spheres.sum() == 1 and flat.light_i[spheres, LIGHT_STRATEGY][0] == BY_AREA
+    mis = film_of(text, samples=64)
+    path = film_of(text.replace("seed: 4}", "seed: 4, integrator: path}"), samples=256)
+    regions_agree(mis, path)
+
+
 def test_moving_lights_chosen_by_a_light_tree_are_bounded_over_their_motion():
     """Eight small lamps, each sliding and turning over the shutter (a light tree chooses among
     eight: its boxes must hold each lamp's whole motion and its cones any normal, or a lamp

@@ -43,7 +43,7 @@ def _shading_at(S, origins, dirs, stack, tstack):
             p, n, u, v = interaction(S, prim, o, d, t, 0.0, True)
             n_tree = n
         front = dot(d, n) < 0.0
-        dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+        dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, 0.0)
         shading, tangent = (n if front else neg(n)), (0.0, 0.0, 0.0)
         if has_shading_map(S.mat_i, mat):
             shading, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)

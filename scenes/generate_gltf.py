@@ -1,8 +1,8 @@
 """Build the glTF 2.0 model behind the gallery's imported scene, from code, so that its every byte
 has a known source.
 
-    python scenes/generate_gltf.py            # rewrite scenes/models/still_life.glb
-    python scenes/generate_gltf.py --check    # exit 1 if the committed file differs
+    python scenes/generate_gltf.py            # rewrite scenes/models/still_life.glb and its import
+    python scenes/generate_gltf.py --check    # exit 1 if a committed file differs
     python scenes/generate_gltf.py --triangles 1000000 -o big.glb   # a dense model for timing `rt import`
 
 The model is what an exporter writes: a node tree with transforms given as translation,
@@ -10,7 +10,9 @@ rotation and scale, one mesh placed by several nodes (the fruit), indexed triang
 and texture coordinates, metallic-roughness materials with a base-colour texture and the
 transmission, ior and clearcoat extensions, KHR_lights_punctual lights and a perspective camera.
 `rt import scenes/models/still_life.glb -o scenes/still_life.yaml` turns it into the scene the
-gallery renders. Needs pygltflib (`pip install '.[gltf]'`).
+gallery renders (scenes/still_life.yaml and scenes/still_life_assets/), which this script writes
+too, exactly as the command does but for the first line naming the schema, as every shipped
+scene's does. Needs pygltflib (`pip install '.[gltf]'`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 MODEL = HERE / "models" / "still_life.glb"
+SCENE = HERE / "still_life.yaml"
+SCHEMA_LINE = "# yaml-language-server: $schema=../schemas/scene.schema.json\n"
 
 FLOAT, UINT32 = 5126, 5125
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -99,7 +103,7 @@ class Builder:
         self.doc.nodes.append(self.g.Node(name=name, children=list(children), **fields))
         return len(self.doc.nodes) - 1
 
-    def save(self, path: Path) -> bytes:
+    def save(self) -> bytes:
         self.doc.buffers = [self.g.Buffer(byteLength=len(self.blob))]
         self.doc.set_binary_blob(bytes(self.blob))
         data = b"".join(self.doc.save_to_bytes())
@@ -247,7 +251,7 @@ def still_life() -> bytes:
     cam = b.node("camera", camera=0, translation=[0.0, 1.35, 2.3], rotation=[math.sin(tilt / 2), 0.0, 0.0, math.cos(tilt / 2)])
     b.doc.scenes.append(g.Scene(name="still life", nodes=[table, floor_node, wall_node, panel_node, key, fill, cam]))
     b.doc.scene = 0
-    return b.save(MODEL)
+    return b.save()
 
 
 def dense(triangles: int) -> bytes:
@@ -261,26 +265,59 @@ def dense(triangles: int) -> bytes:
     mesh = b.mesh("dense", *lathe(profile, segments), mat)
     b.doc.scenes.append(b.g.Scene(nodes=[b.node("dense", mesh=mesh)]))
     b.doc.scene = 0
-    return b.save(Path("dense.glb"))
+    return b.save()
+
+
+def imported(model: bytes) -> dict:
+    """What `rt import` writes for the model (relative name -> bytes): the scene file, the schema
+    line put first, and every file of its assets folder."""
+    import tempfile
+
+    sys.path.insert(0, str(HERE.parent))
+    from rt.importing import import_gltf
+
+    with tempfile.TemporaryDirectory() as tmp:
+        glb = Path(tmp) / MODEL.name
+        glb.write_bytes(model)
+        out = Path(tmp) / "out"
+        out.mkdir()
+        result = import_gltf(glb, out / SCENE.name)
+        files = {SCENE.name: SCHEMA_LINE.encode() + result.scene.read_bytes()}
+        for f in sorted(result.assets.iterdir()):
+            files[f"{result.assets.name}/{f.name}"] = f.read_bytes()
+    return files
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if the committed model differs")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a committed file differs")
     parser.add_argument("--triangles", type=int, help="write a dense model of about this many triangles instead")
-    parser.add_argument("-o", "--output", type=Path, help="where to write (default: scenes/models/still_life.glb)")
+    parser.add_argument("-o", "--output", type=Path, help="where to write the dense model")
     args = parser.parse_args(argv)
-    data = dense(args.triangles) if args.triangles else still_life()
-    out = args.output or MODEL
-    if args.check:
-        if not out.exists() or out.read_bytes() != data:
-            print(f"{out} differs from what scenes/generate_gltf.py writes", file=sys.stderr)
-            return 1
-        print(f"{out}: up to date")
+    if args.triangles:
+        out = args.output or Path("dense.glb")
+        data = dense(args.triangles)
+        out.write_bytes(data)
+        print(f"wrote {out} ({len(data)} bytes)")
         return 0
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_bytes(data)
-    print(f"wrote {out} ({len(data)} bytes)")
+    model = still_life()
+    files = {f"models/{MODEL.name}": model, **imported(model)}
+    assets = HERE / f"{SCENE.stem}_assets"
+    if args.check:
+        stale = [name for name, data in files.items() if not (HERE / name).is_file() or (HERE / name).read_bytes() != data]
+        extra = sorted(f.name for f in assets.iterdir() if f"{assets.name}/{f.name}" not in files) if assets.is_dir() else []
+        if stale or extra:
+            print("differs from what scenes/generate_gltf.py writes: " + ", ".join(stale + extra), file=sys.stderr)
+            return 1
+        print(f"{len(files)} files up to date")
+        return 0
+    if assets.is_dir():
+        for f in assets.iterdir():
+            f.unlink()
+    for name, data in files.items():
+        (HERE / name).parent.mkdir(parents=True, exist_ok=True)
+        (HERE / name).write_bytes(data)
+    print(f"wrote {len(files)} files: the model, {SCENE.name} and {assets.name}/")
     return 0
 
 

@@ -54,7 +54,7 @@ PACKAGES = ("scenefmt", "renderer", "rt")
 FLOOR = frozenset({
     "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
     "renderer.trees", "renderer.flat", "renderer.sampling", "renderer.film_sums", "renderer.adaptive",
-    "renderer.guide_records",
+    "renderer.guide_records", "renderer.motion",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",

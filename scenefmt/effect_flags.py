@@ -31,7 +31,7 @@ class EffectFlag:
 
 
 EFFECT_FLAGS = (
-    EffectFlag("motion", "motion blur", "time sampling and moving sphere centres"),
+    EffectFlag("motion", "motion blur", "time sampling, moving sphere centres, and transforms and a camera interpolated at each ray's time"),
     EffectFlag("defocus", "defocus", "sampling the lens disk"),
     EffectFlag("media", "media", "constant-density media in the trees and scattering inside them"),
     EffectFlag("instances", "instances", "the top-level tree and per-instance transforms"),

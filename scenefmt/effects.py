@@ -129,6 +129,13 @@ class _RunPart:
     count: int
 
 
+@dataclass(frozen=True)
+class _Camera:
+    """The camera, where effects name what moves."""
+
+    path: tuple = ("camera",)
+
+
 def _first(items, text) -> str:
     more = sum(item.count if isinstance(item, _RunPart) else 1 for item in items) - 1
     return text(items[0]) + (f" and {more} more" if more > 0 else "")
@@ -137,6 +144,8 @@ def _first(items, text) -> str:
 def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Union[str, None]:
     """Why a member keeps a transform of its own in the kernels (None if it is baked in).
     `similar` remembers which transforms are similarities: a scene's many shapes share a few."""
+    if member.motion is not None:
+        return "moves: its keyframes place it at each ray's time"
     if isinstance(member, InstanceNode):
         return "is an instance"
     if member.kind in ("sphere", "moving_sphere"):
@@ -250,6 +259,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         why = _needs_instance(member, similar)
         if why is not None:
             placed.append((member, why))
+        if member.motion is not None:
+            moving.append(member)
         if isinstance(member, ShapeNode):
             if member.kind == "moving_sphere" and member.model.center0 != member.model.center1:
                 moving.append(member)
@@ -270,6 +281,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
     cam = graph.camera
+    if cam.moves:
+        moving.insert(0, _Camera())
     found: dict[str, Effect] = {}
     if moving and shutter.close > shutter.open:
         found["motion"] = Effect("", True, _first(moving, lambda m: f"{format_path(m.path)} moves, shutter {shutter.open:g}..{shutter.close:g}"))

@@ -62,7 +62,7 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
     specular = 0
     for bounce in range(max_depth):
         t, prim, inst = intersect_scene(
-            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0 or is_volume(S.prims_i, prim):

@@ -12,8 +12,9 @@ import math
 
 
 from .. import target
-from ..kernel_flags import INSTANCES, MEDIA, MESHES
+from ..kernel_flags import INSTANCES, MEDIA, MESHES, MOTION
 from ..media import MEDIUM_BOUNDARIES, MEDIUM_FIRST_BOUNDARY, MEDIUM_NEG_INV_DENSITY, medium_span
+from ..motion import instance_maps, map_point, map_vector, moves
 from ..numerics.simd import slab4
 from ..numerics.vec import length, xform_point, xform_vector
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
@@ -101,6 +102,9 @@ def transmittance(S, o, d, tmax, time, stack, tstack):
             for inst in range(first, first + count):
                 if S.inst_i[inst, INST_UNTRANSFORMED] == 1:
                     oo, dd = o, d
+                elif MOTION and moves(S.inst_i, inst):
+                    _, back = instance_maps(S.inst_i, S.motion_f, inst, time)
+                    oo, dd = map_point(back, o), map_vector(back, d)
                 else:
                     oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
                     dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)

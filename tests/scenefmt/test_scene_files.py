@@ -70,6 +70,14 @@ EXPECTED = {
         {"quad": 6, "mesh": 1}, (600, 600), 200, 50,
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    # Not from the books: motion of a mesh and a panning camera (issue 36, docs/motion.md).
+    "motion_knot.yaml": (
+        {"quad": 6, "mesh": 1}, (600, 600), 200, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "motion_pan.yaml": (
+        {"sphere": 6}, (400, 225), 100, 20, dict(look_from=(0, 1.5, 8), look_at=(-0.25, 0.8, 0), vfov=30), "sky",
+    ),
     "final_scene.yaml": (
         {"box": 400, "quad": 1, "moving_sphere": 1, "sphere": 6, "instance": 1}, (400, 400), 250, 4,
         dict(look_from=(478, 278, -600), look_at=(278, 278, 0), vfov=40), BLACK,

@@ -2,7 +2,7 @@
 
 Every material answers `sample_bsdf` (direction, weight, pdf, delta), `eval_bsdf` (f . cos as
 tint x value) and `pdf_bsdf`, and `emits` / `emitted`; `tracing/integrator.trace` calls these
-and the shapes' `interaction`, and names no kind of either. These tests hold each material to
+and the shapes' `world_interaction`, and names no kind of either. These tests hold each material to
 that contract on many random inputs (fixed seeds): a sampler's pdf is its own `pdf_bsdf`, its
 weight is eval / pdf, its directions follow its pdf (chi-square, tests/renderer/stats.py), and
 eval is non-negative and reciprocal. Which materials have a density is pinned too: only they
@@ -74,7 +74,7 @@ def names_in(source: str) -> set[str]:
 
 def test_the_integrator_names_no_material_kind_and_no_shape_kind():
     used = names_in(INTEGRATOR.read_text())
-    assert "trace" in used and "sample_bsdf" in used and "interaction" in used
+    assert "trace" in used and "sample_bsdf" in used and "world_interaction" in used
     assert used & forbidden_names() == set()
 
 

@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.loading import paused_gc
 from scenefmt.shapes import sphere_values
 
-from . import background, camera, caustic_targets, environment, guiding, light_emission, lights, materials, media
+from . import background, camera, caustic_targets, environment, grid_media, guiding, light_emission, lights, materials, media
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
@@ -28,7 +28,7 @@ from .materials.table import COLOUR_KEYS, MAT_BUMP_MAP, MAT_NORMAL_MAP, texture_
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
-from .textures import TextureTables
+from .textures import TextureTables, perlin_tables
 from .trees import INST_ROOT, INST_WORLD_FROM_OBJECT, INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I, tree_prims
 
 
@@ -136,7 +136,22 @@ class _Walk:
         """The material row of the isotropic phase function that scatters inside a medium."""
         if id(medium) in self.mat_rows:
             return self.mat_rows[id(medium)]
-        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo)))
+        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo), medium.model.phase_g))
+
+    def varying_medium(self, medium: MediumNode, m, first: int, boundaries: int) -> tuple[int, list]:
+        """The row of a medium whose density varies, bounded by boundary rows first.., its field's
+        rows appended to the boundary table (grid_media.field_rows) in the space of a shape placed
+        by m."""
+        full = np.eye(4)
+        full[:3, :] = np.asarray(m, np.float64).reshape(3, 4)
+        medium_from_tree = np.linalg.inv(full)[:3, :]
+        header = len(self.bnd_rows)
+        rows = grid_media.field_rows(medium.model, medium.grid, medium_from_tree, header, perlin_tables)
+        for r in rows:
+            self.bnd_kind.append(-1)  # no boundary: a medium reads it by its header row, never by kind
+            self.bnd_rows.append(list(r))
+        majorant = float(rows[0, grid_media.F_MAJORANT])
+        return media.medium_row(majorant, first, boundaries, self.media_count, header)
 
     def similarity(self, m) -> tuple:
         known = self.similarities.get(m)
@@ -167,7 +182,10 @@ class _Walk:
             for kind, row, _, _ in bounds:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
-            kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            if shape.interior.kind == "constant":
+                kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            else:
+                kind, row = self.varying_medium(shape.interior, m, first, len(bounds))
             self.media_count += 1
             lo = tuple(min(r[2][k] for r in bounds) for k in range(3))
             hi = tuple(max(r[3][k] for r in bounds) for k in range(3))

@@ -33,7 +33,7 @@ from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform
 from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from .integrator import SHADOW_MARGIN
-from .shadow import transmittance
+from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
 
 # Photon keys are made from the render's seed mixed with this, so they share no random numbers
@@ -104,7 +104,7 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
             if not f > 0.0:
                 return -1, 0.0, 0.0, 0.0
             origin = spawn_origin(p, o, n_front, wi)
-            seen = transmittance(S, origin, sub(lens, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack)
+            seen = shadow_transmittance(S, origin, sub(lens, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack, key, bounce)
             if not seen > 0.0:
                 return -1, 0.0, 0.0, 0.0
             c = seen * f * k / dist2

@@ -99,6 +99,10 @@ class _Walk:
         self.mat_rows: dict[int, int] = {}
         self.bnd_kind: list[int] = []
         self.bnd_rows: list[list] = []
+        # The density fields of varying media, (bnd_f row of the first, its rows), placed among the
+        # boundary rows: a grid's rows stay one numpy block (a 256^3 grid as lists would take 30 bytes a value).
+        self.bnd_fields: list[tuple[int, np.ndarray]] = []
+        self.bnd_count = 0
         self.trees: list[_Tree] = []
         self.tree_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
@@ -145,11 +149,10 @@ class _Walk:
         full = np.eye(4)
         full[:3, :] = np.asarray(m, np.float64).reshape(3, 4)
         medium_from_tree = np.linalg.inv(full)[:3, :]
-        header = len(self.bnd_rows)
+        header = self.bnd_count
         rows = grid_media.field_rows(medium.model, medium.grid, medium_from_tree, header, perlin_tables)
-        for r in rows:
-            self.bnd_kind.append(-1)  # no boundary: a medium reads it by its header row, never by kind
-            self.bnd_rows.append(list(r))
+        self.bnd_fields.append((header, rows))
+        self.bnd_count += len(rows)
         majorant = float(rows[0, grid_media.F_MAJORANT])
         return media.medium_row(majorant, first, boundaries, self.media_count, header)
 
@@ -178,10 +181,11 @@ class _Walk:
         if shape.interior is not None:
             # A medium's boundary is tested as planes or spheres: a box row's faces are made for it.
             bounds = shape_rows(shape.model, m, self.similarity(m), self.shutter, False) if surface[0][0] == BOX else surface
-            first = len(self.bnd_rows)
+            first = self.bnd_count
             for kind, row, _, _ in bounds:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
+            self.bnd_count += len(bounds)
             if shape.interior.kind == "constant":
                 kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
             else:
@@ -314,6 +318,24 @@ def _array(rows: list, layout, dtype) -> np.ndarray:
     return np.array(rows, dtype).reshape(len(rows), layout.width)
 
 
+def _boundary_tables(walk: _Walk) -> dict:
+    """bnd_i and bnd_f: the media's boundary rows, with their density fields' rows where they were
+    placed (kind -1: no boundary; a medium finds its field by its header row)."""
+    if not walk.bnd_fields:  # every medium constant: the table as it always was
+        return {"bnd_i": np.array(walk.bnd_kind, np.int32), "bnd_f": np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)}
+    kinds = np.full(walk.bnd_count, -1, np.int32)
+    rows = np.zeros((walk.bnd_count, PRIM_WIDTH))
+    taken = np.zeros(walk.bnd_count, bool)
+    for first, block in walk.bnd_fields:
+        rows[first:first + len(block)] = block
+        taken[first:first + len(block)] = True
+    free = np.nonzero(~taken)[0]  # the boundary rows, in the order they were added
+    kinds[free] = walk.bnd_kind
+    if len(free):
+        rows[free] = np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)
+    return {"bnd_i": kinds, "bnd_f": rows}
+
+
 def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     """Build the trees over the walk's rows and lay everything out as a FlatScene."""
     build_tree = build_bvh if use_bvh else single_leaf
@@ -391,8 +413,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     flat = FlatScene(
         prims_i=cat(prim_i + mesh.prims_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),
-        bnd_i=np.array(walk.bnd_kind, np.int32),
-        bnd_f=np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH),
+        **_boundary_tables(walk),
         tri_i=cat(mesh.tri_i, TRIANGLE_I.width, np.int32),
         mesh_i=np.array(mesh.mesh_i, np.int32).reshape(-1, MESH_I.width),
         verts_f=cat(mesh.verts_f, 3, np.float64),

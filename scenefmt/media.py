@@ -17,7 +17,12 @@ MAX_GRID_SIDE = 4096
 
 
 class IsotropicPhase(StrictModel):
-    """Scatters equally in every direction (the books' phase function)."""
+    """Scatters equally in every direction (the books' phase function).
+
+    ```yaml
+    type: isotropic
+    ```
+    """
 
     type: Literal["isotropic"] = Field("isotropic", description="Selects the isotropic phase function.")
 
@@ -41,10 +46,18 @@ Phase = Annotated[Union[IsotropicPhase, HenyeyGreensteinPhase], Field(discrimina
 """A phase function, chosen by its `type`."""
 
 
+def _albedo():
+    return Field((1.0, 1.0, 1.0), description="Scattered fraction per channel: a colour or a texture.")
+
+
+def _phase():
+    return Field(IsotropicPhase(), description="How the medium scatters: `isotropic` (the default) or "
+                 "`henyey_greenstein` with its asymmetry `g`.")
+
+
 class _MediumBase(StrictModel):
-    albedo: TextureSlot = Field((1.0, 1.0, 1.0), description="Scattered fraction per channel: a colour or a texture.")
-    phase: Phase = Field(IsotropicPhase(), description="How the medium scatters: `isotropic` (the default) or "
-                         "`henyey_greenstein` with its asymmetry `g`.")
+    # Each kind declares its fields itself, `albedo` and `phase` last, so that a written scene
+    # keeps the order it always had (type, density, albedo).
 
     @property
     def phase_g(self) -> float:
@@ -67,6 +80,8 @@ class ConstantMedium(_MediumBase):
     density: Number = Field(
         ..., gt=0, description="Scattering events per unit length; the mean free path is 1/density."
     )
+    albedo: TextureSlot = _albedo()
+    phase: Phase = _phase()
 
 
 class GridMedium(_MediumBase):
@@ -100,6 +115,8 @@ class GridMedium(_MediumBase):
         "blended between them (the edge cells' values hold out to the box)."
     )
     density: Number = Field(1.0, ge=0, description="Scale of the grid's values: scattering events per unit length per unit value.")
+    albedo: TextureSlot = _albedo()
+    phase: Phase = _phase()
 
     @model_validator(mode="after")
     def _check(self) -> "GridMedium":
@@ -137,6 +154,8 @@ class NoiseMedium(_MediumBase):
     octaves: int = Field(7, ge=1, le=16, strict=True, description="Number of octaves summed for turbulence and marble.")
     density: Number = Field(1.0, gt=0, description="Scattering events per unit length per unit of the noise's value.")
     seed: int = Field(0, ge=0, le=2**31 - 1, strict=True, description="Seed of the noise lattice tables.")
+    albedo: TextureSlot = _albedo()
+    phase: Phase = _phase()
 
 
 Medium = Annotated[Union[ConstantMedium, GridMedium, NoiseMedium], Field(discriminator="type")]

@@ -19,7 +19,8 @@ DDA: an empty cell (majorant 0) is crossed at no cost, and a thin one with few t
 collisions. Both are unbiased for any majorant at least the density; a looser one costs only
 time. (This is the null-scattering formulation with a piecewise-constant majorant, as pbrt-v4's
 `DDAMajorantIterator`, with the null events' weights folded in: delta tracking accepts a real
-collision with probability density / majorant, ratio tracking multiplies 1 - density / majorant.)
+collision with probability density / majorant, ratio tracking multiplies 1 - density / majorant,
+and plays Russian roulette once the product is small.)
 
 Random numbers come from the path's key at dimensions `base + k`, k counting the draws, `base`
 mixed from (bounce, instance, medium) as a constant medium's, and the shadow ray's from a
@@ -48,6 +49,10 @@ MAJORANT_BLOCK = 8
 # long segment); past it, free flight says the ray passes and ratio tracking stops multiplying.
 # Reached only by a majorant 10^4 times too loose over a whole segment.
 MAX_STEPS = 1 << 20
+# Ratio tracking plays Russian roulette once its estimate falls below ROULETTE_BELOW, keeping
+# the ray with probability ROULETTE_KEEP (and dividing by it), as pbrt-v4 does (0.05, 0.25).
+ROULETTE_BELOW = 0.05
+ROULETTE_KEEP = 0.25
 # Perlin noise is in [-sqrt 3, sqrt 3]: each corner's gradient is a unit vector and its offset at
 # most sqrt 3 long, and the noise blends them with weights that sum to 1.
 PERLIN_BOUND = math.sqrt(3.0)
@@ -387,6 +392,14 @@ def cell_track(bnd_f, h, o, d, t, t_end, rate, mu, key, base, n, ratio, tr):
             tr *= max(0.0, 1.0 - sigma / mu)
             if tr == 0.0:
                 return math.inf, 0.0, n
+            if tr < ROULETTE_BELOW:
+                # Russian roulette, unbiased: a shadow ray that carries little through a thick
+                # medium stops early most of the time rather than tracking to its far side.
+                v = uniform(key, base + n)
+                n += uint64(1)
+                if v >= ROULETTE_KEEP:
+                    return math.inf, 0.0, n
+                tr /= ROULETTE_KEEP
         else:
             v = uniform(key, base + n)
             n += uint64(1)

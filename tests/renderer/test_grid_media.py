@@ -306,3 +306,40 @@ def test_rt_validate_names_the_medium_that_switches_the_varying_path_on(tmp_path
     assert out.returncode == 0, out.stderr
     assert "media of varying density: on (shapes[0] holds cloud, a grid medium)" in out.stdout
     assert "Henyey-Greenstein phase: off" in out.stdout
+
+
+def test_the_noise_field_uses_the_noise_texture_s_form_codes_and_lattice(tmp_path):
+    """grid_media keeps its own copy of the three form codes and reads the texture's lattice: both
+    must stay the texture's, or a noise medium would not be the noise texture's field."""
+    from renderer import grid_media
+    from renderer.textures import NOISE_FORMS, perlin_tables
+    from tests.renderer.grid_media_calls import densities
+
+    assert (grid_media.NOISE_PLAIN, grid_media.NOISE_TURBULENCE, grid_media.NOISE_MARBLE) == (
+        NOISE_FORMS["plain"], NOISE_FORMS["turbulence"], NOISE_FORMS["marble"])
+    path = tmp_path / "s.yaml"
+    path.write_text("camera: {look_from: [0, 0, 5], look_at: [0, 0, 0]}\nmedia:\n"
+                    "  puff: {type: noise, scale: 3, form: plain, density: 2, seed: 4}\n"
+                    "shapes:\n  - {type: box, min: [0, 0, 0], max: [1, 1, 1], interior: puff}\n")
+    flat = compile_scene(load(path).graph)
+    points = RNG.random((500, 3)) * 4 - 2
+    got = densities(flat.bnd_f, field_header(flat), points)
+    # The texture's plain form, 0.5 (1 + perlin(scale p)), from its own lattice, in numpy.
+    perm, vec = perlin_tables(4)
+
+    def perlin(p):
+        f = np.floor(p)
+        u = p - f
+        i = f.astype(int)
+        s = u * u * (3 - 2 * u)
+        total = 0.0
+        for di in range(2):
+            for dj in range(2):
+                for dk in range(2):
+                    h = perm[0, (i[0] + di) & 255] ^ perm[1, (i[1] + dj) & 255] ^ perm[2, (i[2] + dk) & 255]
+                    w = ((s[0] if di else 1 - s[0]) * (s[1] if dj else 1 - s[1]) * (s[2] if dk else 1 - s[2]))
+                    total += w * vec[h] @ (u - np.array([di, dj, dk]))
+        return total
+
+    expected = np.array([2.0 * 0.5 * (1.0 + perlin(3.0 * p)) for p in points])
+    assert np.allclose(got, np.maximum(expected, 0.0), rtol=1e-12, atol=1e-12)

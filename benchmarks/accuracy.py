@@ -572,9 +572,24 @@ def main() -> int:
             cells.append(f"{spp} spp, {_fmt(seconds)}")
         lines.append(f"| {name} ({graph.image.width}x{graph.image.pixel_height}) | " + " | ".join(cells) + " |")
     lines.append("")
-    (ROOT / "docs" / "accuracy.md").write_text("\n".join(lines))
+    page = ROOT / "docs" / "accuracy.md"
+    page.write_text("\n".join(lines) + denoising_section(page.read_text() if page.exists() else ""))
     print("wrote docs/accuracy.md")
     return 0
+
+
+def denoising_section(page: str) -> str:
+    """The page's "Denoising" section as it stands (benchmarks/denoise_error.py writes its tables
+    between markers; the prose around them is written by hand), from its heading to the next
+    heading of its level or the page's end, to append after this study's own sections: rewriting
+    the page keeps it. Empty where the page has none."""
+    from denoise_error import HEADING
+
+    start = page.find("\n" + HEADING + "\n")
+    if start < 0:
+        return ""
+    end = page.find("\n## ", start + len(HEADING) + 1)
+    return page[start:] if end < 0 else page[start:end] + "\n"
 
 
 def _fmt(seconds: float) -> str:

@@ -103,9 +103,11 @@ class Film:
 
 
 def to_srgb8(linear: np.ndarray) -> np.ndarray:
-    """8-bit pixels as the books write them: gamma 2 (square root), clamped to [0, 0.999], x256."""
-    gamma = np.sqrt(np.clip(linear, 0.0, None))
-    return (256.0 * np.clip(gamma, 0.0, 0.999)).astype(np.uint8)
+    """8-bit pixels as the books write them: gamma 2 (square root), clamped to [0, 0.999], x256
+    (display.py's `gamma2`, the default display transform)."""
+    from .display import gamma2
+
+    return gamma2(linear)
 
 
 def _atomic_write(path: Path, write) -> None:
@@ -168,28 +170,59 @@ def _atomic_write_named(path: Path, write) -> None:
         raise
 
 
-def png_bytes(linear: np.ndarray) -> bytes:
-    """The 8-bit PNG of a linear image (`to_srgb8`), as bytes: what `write_png` writes."""
+# The PNG text chunk that names the display transform a PNG was made with (display.py), and the
+# one that says what its pixels record, for pictures that are not the image (a noise map).
+PNG_DISPLAY_KEY = "rt:display"
+PNG_CONTENT_KEY = "rt:content"
+
+
+def software_name() -> str:
+    """"rt VERSION", as a PNG's Software chunk gives it ("rt" alone when rt is not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return f"rt {version('rt-render')}"
+    except PackageNotFoundError:  # run from a checkout that is not installed
+        return "rt"
+
+
+def png_bytes(linear: np.ndarray, display: str = "gamma2", text: Optional[dict] = None) -> bytes:
+    """The 8-bit PNG of a linear image under the display transform `display` (display.py; the
+    default is the books' gamma 2, `to_srgb8`), as bytes: what `write_png` writes. Its text
+    chunks say which transform made it (PNG_DISPLAY_KEY) and which program ("Software"), then
+    `text`'s entries (plain ASCII keys and values)."""
     import io
 
     from PIL import Image
+    from PIL.PngImagePlugin import PngInfo
 
+    from .display import DESCRIPTIONS, to_display8
+
+    pixels = to_display8(linear, display)  # refuses an unknown name before anything is encoded
+    info = PngInfo()
+    info.add_text("Software", software_name())
+    info.add_text(PNG_DISPLAY_KEY, display)
+    info.add_text("Comment", f"display transform {display}: {DESCRIPTIONS[display]}")
+    for key, value in (text or {}).items():
+        info.add_text(key, value)
     buffer = io.BytesIO()
-    Image.fromarray(to_srgb8(linear), "RGB").save(buffer, format="PNG")
+    Image.fromarray(pixels, "RGB").save(buffer, format="PNG", pnginfo=info)
     return buffer.getvalue()
 
 
-def write_png(path: Path, linear: np.ndarray) -> None:
-    data = png_bytes(linear)  # encoded in memory first: a failure leaves no file behind
+def write_png(path: Path, linear: np.ndarray, display: str = "gamma2", text: Optional[dict] = None) -> None:
+    data = png_bytes(linear, display, text)  # encoded in memory first: a failure leaves no file behind
     _atomic_write(path, lambda fh: fh.write(data))
 
 
 def write_pfm(path: Path, linear: np.ndarray) -> None:
-    """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR tools)."""
-    if linear.ndim != 3 or linear.shape[2] != 3:
+    """Portable float map: linear RGB float32, little-endian, rows bottom to top (read by most HDR
+    tools); an (height, width) array is written as a grey one ("Pf", one channel: a render pass)."""
+    grey = linear.ndim == 2
+    if not grey and (linear.ndim != 3 or linear.shape[2] != 3):
         raise ValueError(f"expected an (height, width, 3) image, found shape {linear.shape}")
     h, w = linear.shape[:2]
-    header = f"PF\n{w} {h}\n-1.0\n".encode("ascii")
+    header = f"{'Pf' if grey else 'PF'}\n{w} {h}\n-1.0\n".encode("ascii")
     data = np.ascontiguousarray(linear[::-1].astype("<f4"))
     _atomic_write(path, lambda fh: (fh.write(header), fh.write(data.tobytes())))
 
@@ -202,15 +235,35 @@ def write_exr(path: Path, linear: np.ndarray) -> None:
     _atomic_write(path, lambda fh: fh.write(data))
 
 
+def write_exr_layers(path: Path, linear: np.ndarray, layers: dict) -> None:
+    """OpenEXR as `write_exr`, with extra channels beside R, G and B: `layers` maps a full channel
+    name ("albedo.R", "depth.Z") to an (height, width) array (scenefmt.hdr_files.exr_layers_bytes)."""
+    from scenefmt.hdr_files import exr_layers_bytes
+
+    data = exr_layers_bytes(linear, layers)  # encoded in memory first: a failure leaves no file behind
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
+def write_exr_channels(path: Path, channels: dict) -> None:
+    """OpenEXR of named (height, width) float channels ("R", "Y", ...), written atomically."""
+    from scenefmt.hdr_files import exr_channels_bytes
+
+    data = exr_channels_bytes(channels)
+    _atomic_write(path, lambda fh: fh.write(data))
+
+
 def read_pfm(path: Path) -> np.ndarray:
-    """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom)."""
+    """The linear image (h, w, 3) of a PFM file written by `write_pfm` (rows top to bottom); (h, w)
+    for a grey one ("Pf")."""
     raw = Path(path).read_bytes()
     parts = raw.split(b"\n", 3)
-    if parts[0] != b"PF":
-        raise ValueError(f"{path}: not a colour PFM file")
+    if parts[0] not in (b"PF", b"Pf"):
+        raise ValueError(f"{path}: not a PFM file")
     w, h = (int(x) for x in parts[1].split())
     scale = float(parts[2])
     dtype = "<f4" if scale < 0 else ">f4"
+    if parts[0] == b"Pf":
+        return np.frombuffer(parts[3], dtype=dtype, count=w * h).reshape(h, w)[::-1].astype(np.float64)
     return np.frombuffer(parts[3], dtype=dtype, count=w * h * 3).reshape(h, w, 3)[::-1].astype(np.float64)
 
 
@@ -221,7 +274,9 @@ class FileFormat:
     suffix: str
     role: str  # "image": 8-bit, for display (the image, a noise map); "hdr": linear float; "state": a resumable render
     needs_exr: bool = False  # written with the optional OpenEXR library (scenefmt.hdr_files.exr_available)
-    write: Optional[Callable[[Path, np.ndarray], None]] = None  # an image's writer; a state is written by state.py
+    # An image's writer (an "image" role's also takes the display transform and text: write_png); a
+    # state is written by state.py.
+    write: Optional[Callable[..., None]] = None
 
 
 # Every file format a render writes, in the order messages list them: the one place a suffix is
@@ -235,14 +290,19 @@ FILE_FORMATS = (
 FORMAT_BY_SUFFIX = {f.suffix: f for f in FILE_FORMATS}
 
 
-def write_image(path: Path, linear: np.ndarray) -> None:
-    """The image as the format its file's suffix names (FILE_FORMATS): PNG, OpenEXR or PFM."""
+def write_image(path: Path, linear: np.ndarray, display: str = "gamma2", text: Optional[dict] = None) -> None:
+    """The image as the format its file's suffix names (FILE_FORMATS): PNG, OpenEXR or PFM. An
+    8-bit image (PNG) is made with the display transform `display` and carries `text` in its
+    metadata (png_bytes); a linear one is written as rendered, and neither applies."""
     suffix = Path(path).suffix.lower()
     found = FORMAT_BY_SUFFIX.get(suffix)
     if found is None or found.write is None:
         images = [f.suffix for f in FILE_FORMATS if f.write is not None]
         raise ValueError(f"unsupported image format {suffix!r}: use {', '.join(images[:-1])} or {images[-1]}")
-    found.write(path, linear)
+    if found.role == "image":
+        found.write(path, linear, display, text)
+    else:
+        found.write(path, linear)
 
 
 def relative_noise(film: Film) -> float:
@@ -292,5 +352,11 @@ def noise_map_image(estimate: NoiseEstimate) -> np.ndarray:
     err = np.where(np.isfinite(estimate.error), estimate.error, 0.0)
     top = float(np.percentile(err, 99)) if err.size else 0.0
     grey = np.clip(err / top, 0.0, 1.0) if top > 0 else np.zeros_like(err)
-    # Square so that the books' gamma-2 PNG output shows error linearly.
+    # Square so that the books' gamma-2 PNG output shows error linearly (NOISE_MAP_CONTENT).
     return np.repeat((grey * grey)[:, :, None], 3, axis=2)
+
+
+# What a noise map's PNG records (its PNG_CONTENT_KEY chunk): it is always encoded with gamma2,
+# whatever the image's display transform, so that its grey stays linear in the error.
+NOISE_MAP_CONTENT = ("noise map: each pixel's estimated standard error, grey linear in the error, black none, "
+                     "white the 99th percentile and above")

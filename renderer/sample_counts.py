@@ -15,3 +15,8 @@ def sample_count_image(counts: np.ndarray, raw: bool) -> np.ndarray:
     top = float(counts.max(initial=0.0))
     grey = counts / top if top > 0 else np.zeros_like(counts)
     return np.repeat((grey * grey)[:, :, None], 3, axis=2)
+
+
+# What a samples map's PNG records (film.PNG_CONTENT_KEY): always encoded with gamma2, whatever the
+# image's display transform, so that its grey stays linear in the count.
+SAMPLES_MAP_CONTENT = "samples map: each pixel's sample count, grey linear in the count, white the largest"

@@ -157,9 +157,10 @@ def _variant_cache_dir(tag: str) -> str:
     return jit_cache.folder_for(tag)
 
 
-# What a ready marker is about: the progressive render's kernel (tracing/integrator.py) or
-# the tile kernel of a cluster's workers (tracing/tile.py). Each is compiled on first use.
-KERNEL_KINDS = ("kernel", "tile")
+# What a ready marker is about: the progressive render's kernel (tracing/integrator.py), the
+# tile kernel of a cluster's workers (tracing/tile.py) or the render passes' kernel
+# (tracing/aux_passes.py, general only). Each is compiled on first use.
+KERNEL_KINDS = ("kernel", "tile", "aux")
 
 
 def _ready_marker(features: KernelFeatures, kind: str = "kernel") -> Path:

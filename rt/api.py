@@ -140,17 +140,30 @@ class Image:
       `error_high`, each pixel's 95% upper bound); `noise_map`: each pixel's standard error (height, width);
       `counts`: each pixel's samples (height, width), fewer than `samples` where adaptive sampling stopped it;
       `stats`: the render's `RenderStats` (seconds, rays, stop reason, kernel).
-    - `save(path)`: .png (8-bit, the books' gamma 2), .pfm or .exr (linear float32), as `rt render`.
+    - `passes`: the render passes asked for with `rt.render(passes=...)`, name -> float32 array
+      (rt/passes.py, docs/passes.md): "albedo" and "normal" (height, width, 3), "depth",
+      "samples" and "error" (height, width); empty if none was asked for.
+    - `denoised`: with `rt.render(..., denoise=True)`, Open Image Denoise's version of `array`
+      (height, width, 3) float32, guided by the albedo and normal passes (rt/denoise.py,
+      rt/denoised_files.py; its error is measured in docs/accuracy.md); else None.
+    - `save(path)`: .png (8-bit, made with the display transform `display`), .pfm or .exr (linear
+      float32), as `rt render`.
+    - `display`: the PNG's display transform (renderer/display.py: gamma2, the books' and the
+      default, srgb, agx or aces): `rt.render(display=)`, else the scene's `image.display`.
     - A notebook shows it (`_repr_png_`); `numpy.asarray(image)` is `array`.
     """
 
-    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis"):
+    def __init__(self, film: "Film", stats: "RenderStats", name: str = "", integrator: str = "mis",
+                 passes: Optional[dict] = None, display: str = "gamma2"):
         self.film = film
         self.stats = stats
         self.name = name
+        self.display = display
         self.integrator = integrator
+        self.passes: dict = dict(passes or {})
         self._array: Optional["np.ndarray"] = None
         self._estimate: Optional["NoiseEstimate"] = None
+        self.denoised: Optional["np.ndarray"] = None  # rt.render(..., denoise=True) sets it
 
     @property
     def array(self) -> "np.ndarray":
@@ -212,31 +225,46 @@ class Image:
     def noise_map(self) -> "np.ndarray":
         return self.noise_estimate.error
 
-    def save(self, path: Union[str, Path], exposure: Optional[float] = None) -> Path:
-        """Write the image by the file's suffix: .png (exposure in stops scales it first), .pfm or
-        .exr (linear, unchanged). Written atomically; returns the path."""
+    def save(self, path: Union[str, Path], exposure: Optional[float] = None, display: Optional[str] = None) -> Path:
+        """Write the image by the file's suffix: .png (exposure in stops scales it first, then the
+        display transform `display`, by default the image's own, makes its 8-bit values; the PNG's
+        metadata names it), .pfm or .exr (linear, unchanged). Written atomically; returns the path."""
         from renderer.film import write_image
 
         path = Path(path)
         image = self.film.mean()
-        if exposure:
+        display = self._display(display)
+        if exposure or display != self.display:
             from .outputs import format_of
 
             found = format_of(path)
             if found is None or found.role != "image":
-                raise ValueError("exposure applies to a PNG only; .pfm and .exr keep the rendered radiance")
+                what = "exposure" if exposure else "display"
+                raise ValueError(f"{what} applies to a PNG only; .pfm and .exr keep the rendered radiance")
+        if exposure:
             image = image * 2.0 ** exposure
-        write_image(path, image)
+        write_image(path, image, display, {"rt:exposure": f"{exposure:g}"} if exposure else None)
         return path
 
-    def png_bytes(self, exposure: Optional[float] = None) -> bytes:
+    def png_bytes(self, exposure: Optional[float] = None, display: Optional[str] = None) -> bytes:
         """The 8-bit PNG `save` would write, as bytes."""
         from renderer.film import png_bytes
 
         image = self.film.mean()
+        display = self._display(display)
         if exposure:
             image = image * 2.0 ** exposure
-        return png_bytes(image)
+        return png_bytes(image, display, {"rt:exposure": f"{exposure:g}"} if exposure else None)
+
+    def _display(self, display: Optional[str]) -> str:
+        """`display`, checked (ValueError in one sentence for an unknown name), or the image's own."""
+        if display is None:
+            return self.display
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            raise ValueError(unknown_display(display))
+        return display
 
     def _repr_png_(self) -> bytes:
         return self.png_bytes()
@@ -391,6 +419,9 @@ def render(
     should_stop: Optional[Callable[[], bool]] = None,
     cluster: Any = None,
     allow_paths: Iterable[Union[str, Path]] = (),
+    denoise: bool = False,
+    passes: Iterable[str] = (),
+    display: Optional[str] = None,
 ) -> Image:
     """Render a scene and return its `Image`; the options are those of `rt render`.
 
@@ -404,9 +435,21 @@ def render(
     between passes and ends the render early with what is rendered; `allow_paths`: folders besides
     the scene file's own (the current folder for a dict) that the files it names may be read from.
 
+    `passes`: render passes to return in `Image.passes` (docs/passes.md), any of "albedo",
+    "normal", "depth" (traced after the render by camera rays of their own: the image is the
+    same with or without them; Intel Open Image Denoise's definitions), "samples" (each pixel's
+    count) and "error" (each pixel's standard error); a list or "albedo,normal".
+
     `cluster`: render on a Dask cluster (docs/cluster.md): a `dask.distributed.Client`, a
     scheduler address ("tcp://host:8786") or "local"; the image is the same, bit for bit.
     A Client is used as is and left open; a cluster started for "local" is closed at the end.
+
+    `display`: the display transform the image's PNG is made with (`Image.display`; "gamma2",
+    "srgb", "agx" or "aces"), overriding the scene's `image.display`; the radiance is not changed.
+
+    `denoise=True`: also denoise the image with Intel Open Image Denoise (`Image.denoised`, beside
+    the raw `Image.array`); needs the denoise extra, whose absence raises `rt.denoise.DenoiserMissing`
+    (an ImportError) before anything renders; a failure of the filter raises `rt.denoise.DenoiseError`.
 
     Raises `rt.SceneError` (with `.diagnostics`) for an invalid scene and ValueError for an
     invalid option or a scene the renderer cannot use (an image that does not decode).
@@ -437,6 +480,18 @@ def render(
     if noise is not None and not (isinstance(noise, (int, float)) and math.isfinite(noise) and noise >= 0):
         raise ValueError(f"noise={noise!r}: expected a relative noise such as 0.02")
     budget = _seconds(time)
+    if display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            raise ValueError(unknown_display(display))
+    if denoise:  # before rendering: a render spent for a denoise that cannot run is time lost
+        from .denoise import check_available
+
+        check_available()
+    from .passes import parse_passes
+
+    wanted_passes = parse_passes(passes)  # ValueError for an unknown name, before any rendering
 
     overrides = tuple(overrides) + sampler_override(sampler)
     prepared = _prepare(scene, overrides, width, integrator, tuple(allow_paths))
@@ -468,5 +523,18 @@ def render(
         if connection is not None:
             connection.close()
     name = Path(str(scene)).stem if isinstance(scene, (str, Path)) else ""
-    return Image(result.film, result.stats, name, frame.integrator)
+    computed = None
+    if wanted_passes:
+        from .passes import compute_passes
+
+        computed = compute_passes(wanted_passes, flat, result.film, seed=seed if seed is not None else frame.seed,
+                                  notify=notify)
+    image = Image(result.film, result.stats, name, frame.integrator, computed,
+                  display if display is not None else graph.image.display)
+    if denoise:  # guided by the albedo and normal passes: the image's own where asked for (passes=), else rendered
+        from .denoised_files import guided_denoise
+
+        image.denoised, _ = guided_denoise(image.array, flat, image.passes)
+        image.denoised.flags.writeable = False
+    return image
 

@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import json
+import re
 import sys
 from enum import Enum
 from pathlib import Path
@@ -65,7 +66,9 @@ def _summary_lines(loaded) -> list[str]:
         lines.append(f"  named: {defs}")
     lines.append(
         f"  image: {image.width}x{image.pixel_height}, {image.samples_per_pixel} spp, max depth {image.max_depth}, "
-        f"seed {image.seed}, integrator {image.integrator}; background {summary.background}"
+        f"seed {image.seed}, integrator {image.integrator}"
+        + (f", display {image.display}" if image.display != "gamma2" else "")  # the books' default goes unsaid
+        + f"; background {summary.background}"
     )
     if graph.memory is not None:
         from scenefmt.bounds import gib, memory_limit
@@ -235,8 +238,15 @@ def render(
         "its PNG.",
     ),
     exposure: Optional[float] = typer.Option(
-        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its gamma and clamping (the --hdr image is not changed).",
+        None, "--exposure", help="Scale the PNG's brightness by 2^STOPS before its display transform (--display) and clamping (the --hdr image is not changed).",
         metavar="STOPS",
+    ),
+    display: Optional[str] = typer.Option(
+        None, "--display", metavar="gamma2|srgb|agx|aces",
+        help="How the PNG shows the linear image (overrides the file's image.display): gamma2 (the books' square root, the "
+        "default), srgb (the sRGB curve), agx (a filmic curve: highlights roll off, bright colours go to white) or aces "
+        "(the ACES filmic transform, darker mid tones). Applied after --exposure; the PNG's metadata names it; --hdr and "
+        "the noise and samples maps are not changed.",
     ),
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
@@ -304,6 +314,24 @@ def render(
         "see docs/cluster.md.",
     ),
     allow_paths: List[Path] = _ALLOW_OPTION,
+    denoise: bool = typer.Option(
+        False, "--denoise",
+        help="Also write a denoised image beside the raw one (NAME.denoised.png, and beside --hdr), through Intel Open "
+        "Image Denoise guided by albedo and normal passes; the raw images are always written. Needs the denoise extra "
+        "(pip install '.[denoise]' in rt's folder); its error is measured in docs/accuracy.md.",
+    ),
+    passes: Optional[str] = typer.Option(
+        None, "--passes", metavar="albedo,normal,depth,samples,error",
+        help="Also write render passes: albedo, normal (world space) and depth (along the view axis), traced after the "
+        "render by rays of their own as Intel Open Image Denoise defines its auxiliary images (the image is unchanged); "
+        "samples (each pixel's count) and error (each pixel's standard error). See docs/passes.md.",
+    ),
+    passes_as: Optional[str] = typer.Option(
+        None, "--passes-as", metavar="layers|files",
+        help="How --passes are written: layers of the --hdr OpenEXR image (channels albedo.R, normal.X, depth.Z, ...; "
+        "the default with --hdr NAME.exr) or files beside the image, NAME.<pass>.exr with --hdr .exr, else .pfm (the "
+        "default otherwise).",
+    ),
 ) -> None:
     """Render a scene to a PNG image (and optionally a linear HDR image and a noise map)."""
     import time
@@ -319,6 +347,8 @@ def render(
         save_state=save_state, resume=resume, explain=explain, dry_run=dry_run,
         kernel=kernel, integrator=integrator, overrides=tuple(overrides) + sampler_override(sampler), exposure=exposure,
         syntax=syntax.value if syntax else None, cluster=cluster, allow_paths=tuple(allow_paths),
+        passes=tuple(passes.split(",")) if passes is not None else (), passes_as=passes_as, denoise=denoise,
+        display=display,
     )
     try:
         if len(scenes) == 1:
@@ -340,6 +370,10 @@ def watch(
     spp: Optional[int] = typer.Option(None, "--spp", min=1, max=1_000_000, help="Samples per pixel to refine to (overrides the file)."),
     width: Optional[int] = typer.Option(None, "--width", min=1, max=32768, help="Image width; the height keeps the aspect ratio."),
     integrator: Optional[str] = typer.Option(None, "--integrator", help="mis (the default), path, caustics or guided, as for rt render."),
+    display: Optional[str] = typer.Option(
+        None, "--display", metavar="gamma2|srgb|agx|aces", help="How the page shows the image (overrides the file's "
+        "image.display), as for rt render.",
+    ),
     allow_paths: List[Path] = _ALLOW_OPTION,
 ) -> None:
     """Serve a page that shows the scene refining, and render it again each time it (or a file it uses) is saved."""
@@ -353,8 +387,14 @@ def watch(
     if integrator is not None and integrator not in INTEGRATORS:
         typer.echo(f"error: --integrator {integrator!r}: expected {integrator_choices()}", err=True)
         raise typer.Exit(2)
+    if display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if display not in DISPLAYS:
+            typer.echo(f"error: --display: {unknown_display(display)}", err=True)
+            raise typer.Exit(2)
     opts = WatchOptions(scene=scene, spp=spp, width=width, integrator=integrator, overrides=tuple(overrides),
-                        allow_paths=tuple(allow_paths))
+                        allow_paths=tuple(allow_paths), display=display)
     raise typer.Exit(serve(opts, host, port, main_say))
 
 
@@ -371,6 +411,53 @@ def schema(
     else:
         output.write_text(text, encoding="utf-8")
         typer.echo(f"wrote {output}", err=True)
+
+
+@app.command(
+    "import",
+    epilog="Example: rt import chair.glb -o chair.yaml, then rt render chair.yaml -o chair.png; "
+    "rt import chair.glb -o chair_part.yaml --part for a file another scene can include:",
+)
+def import_model(
+    model: Path = typer.Argument(..., help="The glTF 2.0 model: a .glb file, or a .gltf file with its .bin and image files.",
+                                 show_default=False),
+    output: Path = typer.Option(..., "--output", "-o", help="The scene file to write (.yaml); meshes and images go in "
+                                "<its stem>_assets/ beside it.", show_default=False),
+    part: bool = typer.Option(False, "--part", help="Write only what an included file may hold (textures, materials, "
+                              "groups, shapes): no camera, image, background or lights."),
+    prefix: Optional[str] = typer.Option(None, "--prefix", help="Put this before every name the file defines (default: "
+                                         "the output's stem and _), so that several imported models can be included together."),
+    width: int = typer.Option(640, "--width", min=1, max=16384, help="Image width written in the scene."),
+    spp: int = typer.Option(64, "--spp", min=1, max=1_000_000, help="Samples per pixel written in the scene."),
+    lumens_per_watt: float = typer.Option(
+        683.0, "--lumens-per-watt", help="Divides KHR_lights_punctual's photometric intensities (candela, lux) into "
+        "rt's W/sr and W/m^2; 1 takes them as radiometric already."),
+    force: bool = typer.Option(False, "--force", help="Replace the scene file and its assets folder if they exist."),
+) -> None:
+    """Import a glTF 2.0 model as a scene file: meshes as PLY files, materials as principled materials,
+    textures as image files, node transforms and instancing, cameras and KHR_lights_punctual lights.
+    Needs the gltf extra: pip install '.[gltf]' in rt's folder (docs/import.md)."""
+    from scenefmt.diagnostics import escape_control
+    from scenefmt.gltf_read import GltfProblem
+
+    if prefix is not None and not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_\-]{0,23}|", prefix):
+        typer.echo("error: --prefix must start with a letter or _ and hold at most 24 letters, digits, _ or -", err=True)
+        raise typer.Exit(2)
+    try:
+        from rt.importing import import_gltf
+
+        result = import_gltf(model, output, part=part, prefix=prefix, width=width, samples=spp,
+                             lumens_per_watt=lumens_per_watt, force=force)
+    except GltfProblem as exc:
+        typer.echo(escape_control(f"error: {model.name}: {exc}"), err=True)
+        raise typer.Exit(1)
+    except MemoryError:
+        typer.echo(escape_control(f"error: {model.name}: not enough memory to import it"), err=True)
+        raise typer.Exit(1)
+    for line in result.warnings:
+        typer.echo(escape_control(f"warning: ignored: {line}"), err=True)
+    typer.echo(escape_control(f"wrote {result.scene} ({result.meshes} mesh file(s), {result.triangles:,} triangles, "
+                              f"{result.images} image file(s) in {result.assets.name}/)"))
 
 
 if __name__ == "__main__":

@@ -60,6 +60,8 @@ def needs_exr(path) -> bool:
 def _outputs(opts: "RenderOptions") -> list[tuple[str, Path]]:
     named = [("the image", opts.out), ("--hdr", opts.hdr), ("--noise-map", opts.noise_map), ("--samples-map", opts.samples_map),
              ("--save-state", opts.save_state)]
+    named += [("the denoised image", path) for path in opts.denoised]  # --denoise: beside the PNG and --hdr
+    named += [(f"the {name} pass", path) for name, path in opts.pass_outputs]
     return [(what, path) for what, path in named if path is not None]
 
 
@@ -166,10 +168,15 @@ def rescue(film: "Film", key: Optional["RenderKey"], stem: str) -> list[Path]:
 
 
 def write_outputs(
-    opts: "RenderOptions", film: "Film", key: Optional["RenderKey"], fail: Callable[[str], Exception]
+    opts: "RenderOptions", film: "Film", key: Optional["RenderKey"], fail: Callable[[str], Exception],
+    passes: Optional[dict] = None, display: str = "gamma2",
 ) -> "NoiseEstimate":
-    """Write every output of the render; on a failure, rescue the film and raise `fail(message)`."""
-    from renderer.film import estimate_noise, noise_map_image, write_image
+    """Write every output of the render; on a failure, rescue the film and raise `fail(message)`.
+    `passes` (rt/passes.py: name -> array) go into the --hdr EXR as layers or beside the image as
+    files, as --passes-as says. The image's PNG is made with the display transform `display`
+    (renderer/display.py), after --exposure; the noise and samples maps keep gamma 2, which their
+    grey is made for."""
+    from renderer.film import NOISE_MAP_CONTENT, PNG_CONTENT_KEY, estimate_noise, noise_map_image, write_image
     from renderer.state import save_state
     from scenefmt.diagnostics import escape_control
     from scenefmt.files import describe_os_error
@@ -180,16 +187,33 @@ def write_outputs(
     if opts.save_state is not None:
         steps.append((opts.save_state, lambda: save_state(opts.save_state, film, key)))
     exposed = image if not opts.exposure else image * 2.0 ** opts.exposure  # the PNG only; --hdr stays as rendered
-    steps.append((opts.out, lambda: write_image(opts.out, exposed)))
-    if opts.hdr is not None:
+    shown = {"rt:exposure": f"{opts.exposure:g}"} if opts.exposure else None
+    steps.append((opts.out, lambda: write_image(opts.out, exposed, display, shown)))
+    layers = None
+    if passes:
+        from .passes import exr_layers, layout_of
+
+        layers = exr_layers(passes) if layout_of(opts.passes_as, opts.hdr) == "layers" else None
+    if opts.hdr is not None and layers is not None:
+        from renderer.film import write_exr_layers
+
+        steps.append((opts.hdr, lambda: write_exr_layers(opts.hdr, image, layers)))
+    elif opts.hdr is not None:
         steps.append((opts.hdr, lambda: write_image(opts.hdr, image)))
     if opts.noise_map is not None:
-        steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate))))
+        steps.append((opts.noise_map, lambda: write_image(opts.noise_map, noise_map_image(estimate), "gamma2",
+                                                          {PNG_CONTENT_KEY: NOISE_MAP_CONTENT})))
     if opts.samples_map is not None:
-        from renderer.sample_counts import sample_count_image
+        from renderer.sample_counts import SAMPLES_MAP_CONTENT, sample_count_image
 
         raw = format_of(opts.samples_map) is not None and format_of(opts.samples_map).role == "hdr"
-        steps.append((opts.samples_map, lambda: write_image(opts.samples_map, sample_count_image(film.counts, raw))))
+        steps.append((opts.samples_map, lambda: write_image(opts.samples_map, sample_count_image(film.counts, raw), "gamma2",
+                                                            {PNG_CONTENT_KEY: SAMPLES_MAP_CONTENT})))
+    if passes and layers is None:
+        from .passes import write_pass_file
+
+        for name, path in opts.pass_outputs:
+            steps.append((path, lambda path=path, name=name: write_pass_file(path, name, passes[name])))
     for path, step in steps:
         try:
             step()

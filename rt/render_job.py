@@ -49,6 +49,10 @@ class RenderOptions:
     syntax: Optional[str] = None  # --format: yaml or json
     cluster: Optional[str] = None  # --cluster: local or a Dask scheduler's address (rt/cluster.py)
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be read from
+    denoise: bool = False  # --denoise: also write NAME.denoised.png (and beside --hdr) through rt/denoise.py
+    passes: tuple[str, ...] = ()  # --passes: render passes to write (rt/passes.py), as given
+    passes_as: Optional[str] = None  # --passes-as: layers (of the --hdr EXR) or files; None: by --hdr
+    display: Optional[str] = None  # --display: the PNG's display transform (renderer/display.py); None: the scene's
 
     @property
     def from_stdin(self) -> bool:
@@ -61,6 +65,31 @@ class RenderOptions:
         if self.output is not None:
             return self.output
         return Path(("stdin" if self.from_stdin else self.scene.stem) + PNG)
+
+    @property
+    def denoised(self) -> tuple[Path, ...]:
+        """The denoised images --denoise writes, beside the PNG and the --hdr image (none without it)."""
+        if not self.denoise:
+            return ()
+        from .denoise import denoised_path
+
+        return tuple(denoised_path(p) for p in (self.out, self.hdr) if p is not None)
+
+    @property
+    def pass_outputs(self) -> list[tuple[str, Path]]:
+        """(pass, file) of each pass written as a file of its own; none when they are layers of
+        the --hdr EXR, or when --passes is not valid (which `prepare` reports)."""
+        if not self.passes:
+            return []
+        from .passes import layout_of, parse_passes, pass_files
+
+        try:
+            names = parse_passes(self.passes)
+            if layout_of(self.passes_as, self.hdr) != "files":
+                return []
+        except ValueError:
+            return []
+        return pass_files(self.out, names, self.hdr)
 
 
 @dataclass(frozen=True)
@@ -78,6 +107,8 @@ class PreparedScene:
     # The models and parsed file, held until the render ends: freeing a generated scene's
     # millions of objects takes a second that the first sample need not wait for.
     loaded: Optional[object] = None
+    # The PNG's display transform: --display, else the scene's image.display.
+    display: str = "gamma2"
 
 
 def budget_text(text: str) -> str:
@@ -212,6 +243,21 @@ def fail(message: str) -> Stop:
     return Stop(1)
 
 
+def samples_fingerprint(scene) -> str:
+    """The fingerprint a saved state is keyed by (--save-state, --resume): sha256 of the scene's
+    canonical JSON, leaving out `image.display`, which shapes only the PNG made from the samples,
+    so that a render saved under one display transform resumes under another. A scene that does
+    not set it has the fingerprint it had before display transforms existed."""
+    from renderer.state import scene_fingerprint
+    from scenefmt.writing import dumps
+
+    if "display" in scene.image.model_fields_set:
+        image = scene.image
+        kept = {name: getattr(image, name) for name in image.model_fields_set if name != "display"}
+        scene = scene.model_copy(update={"image": type(image).model_validate(kept)})
+    return scene_fingerprint(dumps(scene, "json"))
+
+
 def prepare(opts: RenderOptions) -> PreparedScene:
     """Check the options, read and flatten the scene; print its errors and raise Stop(1) if any."""
     budget_seconds = None
@@ -248,8 +294,31 @@ def prepare(opts: RenderOptions) -> PreparedScene:
 
             if not exr_available():
                 raise fail(f"error: {name} {path}: {EXR_MISSING}")
+    if opts.passes:
+        from .passes import layout_of, parse_passes
+
+        try:
+            parse_passes(opts.passes)
+            layout_of(opts.passes_as, opts.hdr)
+        except ValueError as exc:
+            raise fail(f"error: --passes: {exc}")
+    elif opts.passes_as is not None:
+        raise fail("error: --passes-as says how the passes are written: name them with --passes too "
+                   "(such as --passes albedo,normal)")
     if opts.exposure is not None and not -30 <= opts.exposure <= 30:
         raise fail(f"error: --exposure {opts.exposure:g}: expected a number of stops from -30 to 30")
+    if opts.display is not None:
+        from renderer.display import DISPLAYS, unknown_display
+
+        if opts.display not in DISPLAYS:
+            raise fail(f"error: --display: {unknown_display(opts.display)}")
+    if opts.denoise and not opts.dry_run:  # refused before rendering: a render spent for nothing otherwise
+        from .denoise import DenoiserMissing, check_available
+
+        try:
+            check_available()
+        except DenoiserMissing as exc:
+            raise fail(f"error: {exc}")
     from .outputs import input_problem, output_problem  # every output is checked before rendering
 
     problem = None if opts.dry_run else output_problem(opts)
@@ -298,17 +367,15 @@ def prepare(opts: RenderOptions) -> PreparedScene:
     fingerprint = None
     if opts.resume is not None or opts.save_state is not None:
         # The scene's canonical JSON, hashed: 25 ms for the final scene that other renders skip.
-        from renderer.state import scene_fingerprint
-        from scenefmt.writing import dumps
-
-        fingerprint = scene_fingerprint(dumps(loaded.scene, "json"))
+        fingerprint = samples_fingerprint(loaded.scene)
     package = None
     if opts.cluster is not None:
         from .cluster import package_scene
 
         package = package_scene(None if opts.from_stdin else str(opts.scene), reads, loaded, flat, opts.overrides, opts.syntax,
                                 opts.width, opts.integrator)
-    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package, loaded)
+    display = opts.display if opts.display is not None else graph.image.display
+    return PreparedScene(flat, Frame.of(graph), features_of(graph), budget_seconds, fingerprint, package, loaded, display)
 
 
 def run(opts: RenderOptions, started: float) -> None:
@@ -363,13 +430,12 @@ def render_key_of(opts: RenderOptions, frame, fingerprint: str):
 def save_merged(opts: RenderOptions, scene: PreparedScene, film) -> str:
     """Save `film` as a state to resume from: in --save-state, else (or if that fails) where
     outputs.rescue finds room. Where it went, as the end of an error line."""
-    from renderer.state import save_state, scene_fingerprint
+    from renderer.state import save_state
     from scenefmt.files import describe_os_error
-    from scenefmt.writing import dumps
 
     from .outputs import rescue
 
-    fingerprint = scene.fingerprint or scene_fingerprint(dumps(scene.loaded.scene, "json"))
+    fingerprint = scene.fingerprint or samples_fingerprint(scene.loaded.scene)
     key = render_key_of(opts, scene.frame, fingerprint)
     problem = ""
     if opts.save_state is not None:
@@ -487,8 +553,19 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 raise Stop(stop.status)
             from .outputs import write_outputs  # the state first; a failed write rescues the samples
 
+            passes, passes_failed = None, None
+            if opts.passes:
+                step = "passes"
+                passes, passes_failed = compute_passes_for(opts, scene, film, bar.notify)
             step = "writing"
-            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail)
+            estimate = write_outputs(opts, film, render_key() if scene.fingerprint is not None else None, fail, passes, scene.display)
+            # After the raw images, which a failure here leaves written; not after a stop signal, which
+            # asked for what is rendered to be saved, and no more (the passes may take a compile first).
+            denoised = None
+            if opts.denoise and not stop.requested():
+                from .denoised_files import write_denoised
+
+                denoised = write_denoised(opts, film, flat, fail, passes, scene.display)
         except Aborted as exc:
             # Each file is written under a temporary name and renamed: one is whole or not written.
             if exc.first:
@@ -499,13 +576,26 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
                 say(f"aborted by a second {exc.name}: nothing is saved", err=True)
             raise Stop(exc.status)
     total = time.perf_counter() - started
-    written = ", ".join(str(p) for p in (opts.out, opts.hdr, opts.noise_map, opts.samples_map, opts.save_state) if p is not None)
+    extra = opts.denoised if denoised is not None else ()
+    written = ", ".join(str(p) for p in (opts.out, opts.hdr, *extra, opts.noise_map, opts.samples_map, opts.save_state)
+                        if p is not None)
+    if passes:
+        from .passes import layout_of
+
+        if layout_of(opts.passes_as, opts.hdr) == "layers":
+            written = written.replace(str(opts.hdr), f"{opts.hdr} (with the layers {', '.join(passes)})", 1)
+        else:
+            written += "".join(f", {path}" for _, path in opts.pass_outputs)
     # A kernel compiled during the render is not rendering time (nor counted against --time).
     compiling = f"+ {fmt_seconds(stats.compile_seconds)} compiling; " if stats.compile_seconds >= 0.05 else ""
     say(
         f"wrote {written}: {film.width}x{film.height}, {film.samples} spp ({frame.integrator}), {fmt_seconds(stats.seconds)} rendering "
         f"({compiling}{fmt_seconds(total)} in all), {stats.rays / 1e6:.1f} M rays, {stats.rays_per_second / 1e6:.2f} Mrays/s"
     )
+    if denoised is not None:
+        say(f"denoise: {denoised.sentence()}", err=True)
+    elif opts.denoise:
+        say("denoise: not done, the render was stopped by a signal (the raw images are written)", err=True)
     if film.samples < 2:
         say("noise: not estimated (it takes at least 2 samples per pixel)")
     else:
@@ -531,6 +621,27 @@ def render_prepared(opts: RenderOptions, scene: PreparedScene, started: float, c
     if stats.interrupted:
         say(f"interrupted: the image holds {film.samples} of {target} samples per pixel", err=True)
         raise Stop(stop.status)
+    if opts.denoise and denoised is None:  # the signal came after the last pass, before the denoise
+        raise Stop(stop.status)
+    if passes_failed is not None:
+        raise fail(passes_failed)
+
+
+def compute_passes_for(opts: RenderOptions, scene: PreparedScene, film, notify) -> tuple[Optional[dict], Optional[str]]:
+    """--passes of a finished render: (the passes, None), or (None, the error line) if they could
+    not be computed, in which case the other outputs are still written and the command fails
+    after them (the render is never lost to its passes)."""
+    from .passes import compute_passes
+
+    seed = opts.seed if opts.seed is not None else scene.frame.seed
+    try:
+        return compute_passes(opts.passes, scene.flat, film, seed=seed, notify=notify), None
+    except MemoryError as exc:
+        from scenefmt.assets import memory_message
+
+        return None, f"error: --passes: {memory_message(exc, 'compute the passes')}; the other files are written"
+    except ValueError as exc:
+        return None, f"error: --passes: {exc}; the other files are written"
 
 
 def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
@@ -568,10 +679,12 @@ def batch_options(opts: RenderOptions, scenes: list) -> list[RenderOptions]:
     for scene in scenes:
         stem = "stdin" if str(scene) == "-" else Path(scene).stem
         png = (folder or Path(".")) / f"{stem}{PNG}"
-        key = os.path.abspath(png)
-        if key in seen:
-            raise fail(f"error: {seen[key]} and {scene} would both write {png}: rename one, or render them apart")
-        seen[key] = scene
+        # --denoise's image too: a.yaml's a.denoised.png is a.denoised.yaml's image.
+        for written in (png, *dataclasses.replace(opts, output=png, hdr=None).denoised):
+            key = os.path.abspath(written)
+            if key in seen:
+                raise fail(f"error: {seen[key]} and {scene} would both write {written}: rename one, or render them apart")
+            seen[key] = scene
         hdr = png.with_suffix(hdr_suffix) if hdr_suffix else None
         for image in (png, hdr):
             if image is not None and file_key(image) in scene_files:

@@ -55,6 +55,7 @@ class WatchOptions:
     integrator: Optional[str] = None
     overrides: tuple[str, ...] = ()
     allow_paths: tuple = ()  # --allow-path: folders besides the scene's that its files may be in
+    display: Optional[str] = None  # --display: the page's display transform; None: the scene's image.display
 
 
 def source_line(file: str, line: int) -> str:
@@ -163,6 +164,7 @@ class Previewer:
         self.watched: dict[str, object] = {scene: file_identity(scene)}
         self.generation = 0
         self.version = 0
+        self.display = opts.display or "gamma2"  # set again from the scene each time it is read (_render_once)
         self.saved_at: Optional[float] = None  # when the poller saw the change being rendered
         self.version_first = False  # the next image is the first since the change
         self.posted_noise: tuple = (None, 0, float("inf"))  # (film, its samples, relative_noise) of the last image posted
@@ -227,7 +229,7 @@ class Previewer:
         self.version += 1
         noise = relative_noise(film)
         self.posted_noise = (film, film.samples, noise)
-        png = png_bytes(film.mean())
+        png = png_bytes(film.mean(), self.display)
         latency = time.perf_counter() - self.saved_at if self.saved_at is not None and self.version_first else None
         self.version_first = False
         data = {
@@ -283,6 +285,7 @@ class Previewer:
             self.say(text)
             self.board.post("status", {"generation": generation, "text": text})
         frame = Frame.of(graph)
+        self.display = self.opts.display if self.opts.display is not None else graph.image.display
         target = self.opts.spp if self.opts.spp is not None else frame.samples
         self.board.post("status", {"generation": generation, "text": "rendering"})
         # A small, fast first pass: a quarter of the width, one sample.

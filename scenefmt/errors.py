@@ -7,6 +7,7 @@ was found against what was expected, with a did-you-mean for misspelt keys and t
 
 from __future__ import annotations
 
+import re
 import typing
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Union
@@ -185,8 +186,20 @@ def _wrong_length(e: _Error) -> Diagnostic:
 
 def _unsupported_version(e: _Error) -> Diagnostic:
     if e.path != ("version",):
-        return _worded_by_pydantic(e)
+        return _not_one_of(e)
     return e.doc.diagnostic(e.path, f"unsupported scene format version {_short(e.found)}; this rt reads version 1")
+
+
+def _not_one_of(e: _Error) -> Diagnostic:
+    """A value outside a fixed list of names (a Literal): pydantic's wording, then the nearest name
+    when the value looks like a misspelling of one (`sgrb` -> `srgb`)."""
+    diag = _worded_by_pydantic(e)
+    names = re.findall(r"'([^']*)'", str(e.ctx.get("expected", "")))
+    if isinstance(e.found, str) and names:
+        hint = did_you_mean(e.found, names)
+        if hint:
+            diag = e.doc.diagnostic(e.path, diag.message + hint)
+    return diag
 
 
 def _unknown_key(e: _Error) -> Diagnostic:

@@ -15,6 +15,7 @@ import contextvars
 import errno
 import os
 import stat
+from typing import Optional
 from pathlib import Path
 
 # The files opened through this module while `recording_reads` is active (in this thread).
@@ -27,6 +28,19 @@ ALLOW_HINT = "to read it, allow its folder with --allow-path DIR (allow_paths=[.
 
 class FileProblem(Exception):
     """A file cannot be used; the message says why, in words."""
+
+
+class LineProblem(Exception):
+    """A file's content cannot be used; `line` is the 1-based line where one is known (a text
+    format's readers: OBJ meshes, material libraries)."""
+
+    def __init__(self, message: str, line: Optional[int] = None):
+        super().__init__(message)
+        self.message = message
+        self.line = line
+
+    def __str__(self) -> str:
+        return f"line {self.line}: {self.message}" if self.line is not None else self.message
 
 
 _KINDS = (

@@ -244,6 +244,11 @@ class _Resolver:
         self._group_stack: list[str] = []
         self.mesh_warnings: list[Diagnostic] = []
         self.assets = AssetCache()  # each file read once, however many places name it
+        # An OBJ's own materials (mesh_materials.py): its parts, the nodes of its library's
+        # entries, and the remarks already made, each once per load.
+        self.obj_parts: dict = {}
+        self.obj_materials: dict = {}
+        self.said_once: set = set()
 
     # --- reporting -----------------------------------------------------------------------------
 
@@ -490,7 +495,9 @@ class _Resolver:
         for start, end in runs + [(len(models), len(models))]:
             for i in range(done, start):
                 member = self.shape(models[i], list_path + (i,))
-                if member is not None:
+                if isinstance(member, list):  # an OBJ mesh cut by its materials
+                    members.extend(member)
+                elif member is not None:
                     members.append(member)
             if end > start:
                 members.append(self.sphere_run(list_path, start, end, columns))
@@ -516,7 +523,9 @@ class _Resolver:
         return SphereRunNode(list_path, start, materials, slot[code], at[order].astype(np.int64),
                              count[order].astype(np.int64), centers, radii)
 
-    def shape(self, model, path: tuple) -> Optional[Union[ShapeNode, InstanceNode]]:
+    def shape(self, model, path: tuple) -> Union[ShapeNode, InstanceNode, list, None]:
+        """The node of one shape; for an OBJ mesh without a material, a list: one node per material
+        of its library (mesh_materials.py)."""
         transform = affine.IDENTITY
         if model.transform:
             bounds.check_transform(model.transform, path, self.error)
@@ -533,6 +542,10 @@ class _Resolver:
             node.mesh = self.mesh_data(model, path)
             if node.mesh is None:
                 return None
+            if model.material is None:
+                from .mesh_materials import material_parts
+
+                return material_parts(self, node, path)
         return node
 
     def mesh_data(self, model: Mesh, path: tuple):
@@ -560,7 +573,7 @@ class _Resolver:
             except MemoryError as exc:
                 self.error(where, f"{name}: " + memory_message(exc, "read it", read_estimate(resolved)))
                 return None
-            if mesh.mtllib_line is not None:
+            if mesh.mtllib_line is not None and model.material is not None:
                 self.mesh_warnings.append(self.warn(
                     where, f"{name} names a material library (mtllib, line {mesh.mtllib_line}): the OBJ's materials are "
                     "not read; the shape's material: is used for every face"))
@@ -579,7 +592,9 @@ class _Resolver:
         else:  # a partly valid scene, for its errors: its shapes keep their places in the file
             for shape, path in zip(scene.shapes, self.shape_paths):
                 member = self.shape(shape, path)
-                if member is not None:
+                if isinstance(member, list):  # an OBJ mesh cut by its materials
+                    root.members.extend(member)
+                elif member is not None:
                     root.members.append(member)
         # Definitions nothing reached are still checked (so their errors show), then reported as
         # unused; a group goes first since resolving it marks what it uses.

@@ -242,3 +242,29 @@ def exr_bytes(linear: np.ndarray) -> bytes:
     out = io.BytesIO()
     OpenEXR.File(header, {"RGB": pixels}).write(out)
     return out.getvalue()
+
+
+def exr_channels_bytes(channels: dict) -> bytes:
+    """An OpenEXR file (float32, ZIP-compressed scanlines) of the named channels: each an (h, w)
+    array of one size, under its full name ("R", "albedo.R", "depth.Z")."""
+    OpenEXR = openexr_module()
+    shapes = {values.shape for values in channels.values()}
+    if not channels or len(shapes) != 1 or len(next(iter(shapes))) != 2:
+        raise HdrProblem(f"expected channels of one (height, width) size, found shapes {sorted(shapes)}")
+    pixels = {name: np.ascontiguousarray(values, dtype=np.float32) for name, values in channels.items()}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    out = io.BytesIO()
+    OpenEXR.File(header, pixels).write(out)
+    return out.getvalue()
+
+
+def exr_layers_bytes(linear: np.ndarray, layers: dict) -> bytes:
+    """An OpenEXR file of the linear image (h, w, 3) as its R, G and B channels, as `exr_bytes`
+    writes it, and beside them the channels of `layers`: a full channel name ("albedo.R",
+    "depth.Z") to an (h, w) array. Readers that know no layers (and our own image textures)
+    still find the image in R, G and B."""
+    if linear.ndim != 3 or linear.shape[2] != 3:
+        raise HdrProblem(f"expected an (height, width, 3) image, found shape {linear.shape}")
+    if any(name in ("R", "G", "B") for name in layers):
+        raise HdrProblem("a layer's channel is named R, G or B, which hold the image")
+    return exr_channels_bytes({"R": linear[..., 0], "G": linear[..., 1], "B": linear[..., 2], **layers})

@@ -17,6 +17,7 @@ the face list length declared it reads 10^6 binary triangles in 0.05 s.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import warnings
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from typing import Optional
 import numpy as np
 
 from .diagnostics import did_you_mean, key_shown, quote_key, quote_text  # never a line of the file: it may be anything
-from .files import FileProblem, open_regular_file
+from .files import FileProblem, LineProblem, open_regular_file
 
 # Largest mesh file read, whatever the memory: beyond it the budget below decides first anyway.
 MAX_MESH_BYTES = 4 << 30
@@ -51,16 +52,8 @@ _OBJ_IGNORED = {
 SUFFIXES = (".obj", ".ply")
 
 
-class MeshProblem(Exception):
+class MeshProblem(LineProblem):
     """A mesh file cannot be used; `line` is the 1-based line (OBJ) where one is known."""
-
-    def __init__(self, message: str, line: Optional[int] = None):
-        super().__init__(message)
-        self.message = message
-        self.line = line
-
-    def __str__(self) -> str:
-        return f"line {self.line}: {self.message}" if self.line is not None else self.message
 
 
 @dataclass
@@ -71,8 +64,12 @@ class MeshData:
     uvs: Optional[np.ndarray] = None  # (V, 2) float64, per vertex
     polygons: int = 0  # faces in the file, before triangulation
     degenerate: int = 0  # zero-area triangles dropped
-    mtllib_line: Optional[int] = None  # an OBJ's first `mtllib` line: its materials are not read
+    mtllib_line: Optional[int] = None  # an OBJ's first `mtllib` line
+    mtllibs: tuple = ()  # an OBJ's material libraries: (line, file name as written), in file order
+    material_names: tuple = ()  # the names `usemtl` gives, in the order first used
+    face_material: Optional[np.ndarray] = None  # (T,) int32 per triangle: its `usemtl` in material_names, -1 before any
     extent_and_size: Optional[tuple] = None  # (largest coordinate, least triangle size), measured once by scenefmt.bounds
+    material_note: Optional[str] = None  # a part of an OBJ cut by material: which, for `rt validate` ("usemtl 'red': plastic")
 
 
 def read_mesh(path, drop_degenerate: bool = True) -> MeshData:
@@ -137,11 +134,11 @@ def from_arrays(vertices, faces, normals=None, uvs=None, drop_degenerate: bool =
     vertex_count = len(v) if drop_degenerate else None  # None: _fans keeps repeated corners
     if isinstance(faces, np.ndarray) and faces.ndim == 2:
         counts = np.full(len(faces), faces.shape[1])
-        f, dropped = _fans(faces.astype(np.int64).reshape(-1), counts, vertex_count)
+        f, dropped, _ = _fans(faces.astype(np.int64).reshape(-1), counts, vertex_count)
     else:
         counts = np.array([len(face) for face in faces], np.int64)
         flat = np.array([i for face in faces for i in face], np.int64)
-        f, dropped = _fans(flat, counts, vertex_count)
+        f, dropped, _ = _fans(flat, counts, vertex_count)
     polygons = len(counts)
     mesh = MeshData(v, f, None if normals is None else np.asarray(normals, np.float64).reshape(-1, 3),
                     None if uvs is None else np.asarray(uvs, np.float64).reshape(-1, 2), polygons, dropped)
@@ -177,6 +174,8 @@ def check_mesh(mesh: MeshData, drop_degenerate: bool = True) -> MeshData:
         dropped = int(len(f) - keep.sum())
         if dropped:
             mesh.faces = f[keep]
+            if mesh.face_material is not None:
+                mesh.face_material = mesh.face_material[keep]
         mesh.degenerate += dropped  # with those the fans left out (repeated corners)
         if len(mesh.faces) == 0:
             raise MeshProblem(f"every one of the mesh's {len(mesh.faces) + mesh.degenerate:,} triangles has zero area")
@@ -191,10 +190,12 @@ def _has_area(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return area > DEGENERATE * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
 
 
-def _fans(corners: np.ndarray, counts: np.ndarray, vertex_count: Optional[int] = None) -> tuple[np.ndarray, int]:
-    """Triangles (c0, ck, ck+1) of polygons given as their corners, one after another, and how
+def _fans(corners: np.ndarray, counts: np.ndarray, vertex_count: Optional[int] = None,
+          labels: Optional[np.ndarray] = None) -> tuple[np.ndarray, int, Optional[np.ndarray]]:
+    """Triangles (c0, ck, ck+1) of polygons given as their corners, one after another, how
     many were left out for repeating a corner (only when `vertex_count` is given and every corner
-    is below it: an index out of range is left for check_mesh to report).
+    is below it: an index out of range is left for check_mesh to report), and, when `labels`
+    gives one per polygon (an OBJ's `usemtl`), the label of each triangle kept.
 
     The number of triangles is checked against the memory budget before any is made, and the
     fans are cut a chunk of polygons at a time, each chunk's repeated-corner triangles dropped
@@ -213,28 +214,34 @@ def _fans(corners: np.ndarray, counts: np.ndarray, vertex_count: Optional[int] =
     if len(counts) and counts.max() == 3 and counts.min() == 3:
         tris = corners.reshape(-1, 3)
         if not drop:
-            return tris, 0
+            return tris, 0, labels
         keep = _distinct_corners(tris)
-        return (tris if keep.all() else tris[keep]), int(len(tris) - keep.sum())
+        if keep.all():
+            return tris, 0, labels
+        return tris[keep], int(len(tris) - keep.sum()), None if labels is None else labels[keep]
     start = np.concatenate([[0], np.cumsum(counts)[:-1]])
     # Polygons in chunks of about _CHUNK_TRIANGLES triangles (a chunk holds one polygon at least).
     ends = np.searchsorted(np.cumsum(counts - 2), np.arange(_CHUNK_TRIANGLES, triangles + _CHUNK_TRIANGLES, _CHUNK_TRIANGLES),
                            side="right")
-    parts, dropped, lo = [], 0, 0
-    for hi in ends.tolist():
+    parts, part_labels, dropped, lo = [], [], 0, 0
+    for hi in ends.tolist() + [len(counts)]:  # the last: guards the chunking, every polygon is cut
         hi = max(hi, lo + 1) if lo < len(counts) else lo
         if hi <= lo:
             continue
         part = _fan_chunk(corners, start[lo:hi], counts[lo:hi])
+        label = None if labels is None else np.repeat(labels[lo:hi], counts[lo:hi] - 2)
         if drop:
             keep = _distinct_corners(part)
             dropped += int(len(part) - keep.sum())
             part = part[keep]
+            label = None if label is None else label[keep]
         parts.append(part)
+        part_labels.append(label)
         lo = hi
-    if lo < len(counts):  # guards the chunking: every polygon is cut
-        parts.append(_fan_chunk(corners, start[lo:], counts[lo:]))
-    return (np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)), dropped
+    tris = np.concatenate(parts) if parts else np.zeros((0, 3), np.int64)
+    if labels is None:
+        return tris, dropped, None
+    return tris, dropped, (np.concatenate(part_labels) if part_labels else np.zeros(0, np.int32))
 
 
 def _distinct_corners(tris: np.ndarray) -> np.ndarray:
@@ -294,13 +301,13 @@ def _obj_fast(data: bytes, drop_degenerate: bool = True) -> MeshData:
     is_vn = (c0 == ord("v")) & (c1 == ord("n")) & ((padded[starts + 2] == 32) | (padded[starts + 2] == 9))
     is_f = (c0 == ord("f")) & blank1
     other = np.flatnonzero(~(is_v | is_vt | is_vn | is_f))
-    mtllib_line = None
+    materials = _MaterialStatements()
     for k in other.tolist():
         words = lines[k].split(None, 1)
         if words and not words[0].startswith(b"#") and words[0] not in _OBJ_IGNORED:
             raise _NotSimple
-        if words and words[0] == b"mtllib" and mtllib_line is None:
-            mtllib_line = k + 1
+        if words and words[0] in (b"mtllib", b"usemtl"):
+            materials.read(words, k)
     v = _obj_rows(lines, np.flatnonzero(is_v), 2, 3)
     vt = _obj_rows(lines, np.flatnonzero(is_vt), 3, 2) if is_vt.any() else None
     vn = _obj_rows(lines, np.flatnonzero(is_vn), 3, 3) if is_vn.any() else None
@@ -345,9 +352,44 @@ def _obj_fast(data: bytes, drop_degenerate: bool = True) -> MeshData:
         columns.append(idx)
     while len(columns) < 3:
         columns.append(None)
-    mesh = _obj_assemble(v, vt, vn, columns, counts, drop_degenerate)
-    mesh.mtllib_line = mtllib_line
+    mesh = _obj_assemble(v, vt, vn, columns, counts, drop_degenerate, materials.face_labels(f_lines))
+    materials.describe(mesh)
     return mesh
+
+
+class _MaterialStatements:
+    """An OBJ's `mtllib` and `usemtl` lines, gathered as either reader meets them (0-based line
+    indices), and what they make of each face: the `usemtl` in force on its line."""
+
+    def __init__(self):
+        self.libraries: list = []  # (1-based line, file name)
+        self.use_lines: list = []  # 0-based line of each usemtl
+        self.use_codes: list = []  # its name's place in self.names
+        self.names: dict = {}  # name -> place, in the order first used
+
+    def read(self, words: list, k: int) -> None:
+        """Note statement `words` (keyword and the rest of the line) of 0-based line `k`."""
+        rest = words[1].split(b"#", 1)[0].strip() if len(words) > 1 else b""
+        if words[0] == b"mtllib":
+            # Several libraries may share a line; a name with spaces cannot be told from two.
+            self.libraries += [(k + 1, w.decode("utf-8", "replace")) for w in rest.split()]
+        else:
+            name = rest.decode("utf-8", "replace")
+            self.use_lines.append(k)
+            self.use_codes.append(self.names.setdefault(name, len(self.names)))
+
+    def face_labels(self, f_lines: np.ndarray) -> Optional[np.ndarray]:
+        """Each face's material (a place in the names; -1 before any usemtl), from the 0-based
+        lines of the faces; None when the file has no usemtl (nothing is made then)."""
+        if not self.use_lines:
+            return None
+        codes = np.array([-1] + self.use_codes, np.int32)
+        return codes[np.searchsorted(np.array(self.use_lines, np.int64), f_lines, side="right")]
+
+    def describe(self, mesh: MeshData) -> None:
+        mesh.mtllibs = tuple(self.libraries)
+        mesh.mtllib_line = self.libraries[0][0] if self.libraries else None
+        mesh.material_names = tuple(self.names)
 
 
 def _numbers(text: bytes, dtype) -> np.ndarray:
@@ -379,24 +421,25 @@ def _obj_rows(lines, which: np.ndarray, skip: int, width: int) -> np.ndarray:
     return out
 
 
-def _obj_assemble(v, vt, vn, columns, counts, drop_degenerate: bool = True) -> MeshData:
+def _obj_assemble(v, vt, vn, columns, counts, drop_degenerate: bool = True, labels=None) -> MeshData:
     iv, it, inn = columns
     use_uv = it is not None and vt is not None
     use_n = inn is not None and vn is not None
     if not (use_uv or use_n):
-        faces, dropped = _fans(iv, counts, len(v) if drop_degenerate else None)
-        return MeshData(v, faces, polygons=len(counts), degenerate=dropped)
+        faces, dropped, labels = _fans(iv, counts, len(v) if drop_degenerate else None, labels)
+        return MeshData(v, faces, polygons=len(counts), degenerate=dropped, face_material=labels)
     # A vertex is a distinct (position, uv, normal) combination.
     key = np.stack([iv] + ([it] if use_uv else []) + ([inn] if use_n else []), 1)
     unique, corner = np.unique(key, axis=0, return_inverse=True)
     corner = corner.reshape(-1)
-    faces, dropped = _fans(corner, counts, len(unique) if drop_degenerate else None)
+    faces, dropped, labels = _fans(corner, counts, len(unique) if drop_degenerate else None, labels)
     return MeshData(
         v[unique[:, 0]], faces,
         normals=vn[unique[:, -1]] if use_n else None,
         uvs=vt[unique[:, 1]] if use_uv else None,
         polygons=len(counts),
         degenerate=dropped,
+        face_material=labels,
     )
 
 
@@ -407,7 +450,8 @@ def _obj_slow(data: bytes, drop_degenerate: bool = True) -> MeshData:
     counts = []
     pending = b""
     start_line = 0
-    mtllib_line = None
+    materials = _MaterialStatements()
+    face_lines = []  # 0-based line of each face, for its usemtl
     for number, raw in enumerate(data.split(b"\n"), 1):
         line = pending + raw.rstrip(b"\r")
         if line.endswith(b"\\"):
@@ -461,23 +505,27 @@ def _obj_slow(data: bytes, drop_degenerate: bool = True) -> MeshData:
                 face.append(tuple(ids))
             corners.extend(face)
             counts.append(len(face))
+            face_lines.append(at - 1)
         elif key.startswith(b"#") or key in _OBJ_IGNORED:
-            if key == b"mtllib" and mtllib_line is None:
-                mtllib_line = at
+            if key in (b"mtllib", b"usemtl"):
+                materials.read(line.split(None, 1), at - 1)
             continue
         else:
             raise MeshProblem(f"unknown OBJ statement {_statement(key)}", at)
     vertices = np.array(v, np.float64).reshape(-1, 3)
     if not corners:
-        return MeshData(vertices, np.zeros((0, 3), np.int64), mtllib_line=mtllib_line)
+        mesh = MeshData(vertices, np.zeros((0, 3), np.int64))
+        materials.describe(mesh)
+        return mesh
     iv = np.array([c[0] for c in corners], np.int64)
     columns = [iv]
     for k in (1, 2):
         have = [c[k] is not None for c in corners]
         columns.append(np.array([c[k] for c in corners], np.int64) if all(have) else None)
     mesh = _obj_assemble(vertices, np.array(vt, np.float64).reshape(-1, 2), np.array(vn, np.float64).reshape(-1, 3),
-                         columns, np.array(counts, np.int64), drop_degenerate)
-    mesh.mtllib_line = mtllib_line
+                         columns, np.array(counts, np.int64), drop_degenerate,
+                         materials.face_labels(np.array(face_lines, np.int64)))
+    materials.describe(mesh)
     return mesh
 
 
@@ -662,12 +710,62 @@ def _ply_mesh(ply, face_prop: str, drop_degenerate: bool) -> MeshData:
     vertex_count = len(vertices) if drop_degenerate else None
     if faces.dtype != object:
         corners = faces.astype(np.int64).reshape(-1)
-        f, dropped = _fans(corners, np.full(len(corners) // 3, 3), vertex_count)
+        f, dropped, _ = _fans(corners, np.full(len(corners) // 3, 3), vertex_count)
         return MeshData(vertices, f, normals, uvs, len(corners) // 3, dropped)
     counts = np.array([len(face) for face in faces], np.int64)
     corners = np.concatenate(faces).astype(np.int64) if len(faces) else np.zeros(0, np.int64)
-    f, dropped = _fans(corners, counts, vertex_count)
+    f, dropped, _ = _fans(corners, counts, vertex_count)
     return MeshData(vertices, f, normals, uvs, len(counts), dropped)
+
+
+def split_by_material(mesh: MeshData, smooth: bool = False) -> list:
+    """[(label, MeshData)]: the mesh cut into one mesh per `usemtl` (label -1: faces before any),
+    in the order of the labels, each with only the vertices its triangles use (renumbered in
+    their order in the file), so that each part is the mesh the same faces would make alone.
+    With `smooth` and no normals in the file, every part gets the area-weighted vertex normals
+    of the whole mesh, so that shading stays smooth across the seams between materials."""
+    labels = mesh.face_material
+    if labels is None or len(labels) == 0 or labels.min() == labels.max():
+        # A copy of the record (the arrays shared): the part is annotated, the mesh read stays as read.
+        return [(-1 if labels is None or len(labels) == 0 else int(labels[0]), dataclasses.replace(mesh))]
+    normals = mesh.normals
+    if smooth and normals is None:
+        normals = _area_weighted_normals(mesh.vertices, mesh.faces)
+    order = np.argsort(labels, kind="stable")
+    sorted_labels = labels[order]
+    cuts = np.flatnonzero(np.diff(sorted_labels)) + 1
+    parts = []
+    used_mark = np.zeros(len(mesh.vertices), bool)
+    for rows in np.split(order, cuts):
+        faces = mesh.faces[rows]
+        corners = faces.reshape(-1)
+        # The vertices used, in file order; a vertex's new number is its place among them. A part
+        # much smaller than the mesh sorts its corners (its own size); a large one marks them and
+        # counts (the mesh's size, without a sort): the same numbers either way.
+        if 8 * len(corners) < len(mesh.vertices):
+            used, renumber = np.unique(corners, return_inverse=True)
+        else:
+            used_mark[corners] = True
+            used = np.flatnonzero(used_mark)
+            renumber = (np.cumsum(used_mark, dtype=np.int64) - 1)[corners]
+            used_mark[used] = False
+        part = MeshData(mesh.vertices[used], renumber.reshape(-1, 3).astype(np.int64),
+                        None if normals is None else normals[used], None if mesh.uvs is None else mesh.uvs[used],
+                        polygons=len(rows))
+        parts.append((int(labels[rows[0]]), part))
+    return parts
+
+
+def _area_weighted_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Each vertex's normal: the sum of the faces' normals around it, each as long as twice its area
+    (as the renderer makes them for a smooth mesh without normals); 0 where they cancel."""
+    p0, p1, p2 = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    face_n = np.cross(p1 - p0, p2 - p0)
+    out = np.zeros_like(vertices)
+    for k in range(3):
+        np.add.at(out, faces[:, k], face_n)
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.where(length > 0, out / np.where(length > 0, length, 1.0), 0.0)
 
 
 def describe(mesh: MeshData) -> str:
@@ -678,7 +776,10 @@ def describe(mesh: MeshData) -> str:
         text += f" from {mesh.polygons:,} faces"
     if extras:
         text += " with " + " and ".join(extras)
+    if mesh.material_note:
+        text += f"; {mesh.material_note}"
     return text
 
 
-__all__ = ["FileProblem", "MeshData", "MeshProblem", "from_arrays", "read_mesh", "read_obj", "read_ply", "SUFFIXES"]
+__all__ = ["FileProblem", "MeshData", "MeshProblem", "from_arrays", "read_mesh", "read_obj", "read_ply", "split_by_material",
+           "SUFFIXES"]

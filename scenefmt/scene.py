@@ -133,6 +133,10 @@ class Camera(StrictModel):
         return self.focus * math.tan(math.radians(self.defocus_angle) / 2.0)
 
 
+# The display transforms a PNG can be made with (renderer/display.py implements them, under the
+# same names: tests/test_display.py keeps the two lists equal).
+DisplayName = Literal["gamma2", "srgb", "agx", "aces"]
+
 _RATIO = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*[:/]\s*(\d+(?:\.\d+)?)\s*$")
 
 
@@ -184,6 +188,15 @@ class Image(StrictModel):
         description="Where the samples fall: independent draws a fresh random number for every sample and "
         "dimension (the books'); sobol uses Owen-scrambled Sobol points, spread more evenly, in independently "
         "scrambled batches so that the reported error stays honest.",
+    )
+
+    display: DisplayName = Field(
+        "gamma2",
+        description="How the PNG shows the image's linear radiance (the --hdr image is never changed): gamma2, the "
+        "books' square root, clamped and truncated (the default); srgb, the sRGB standard's curve, clamped; agx, a "
+        "filmic curve after Sobotka's AgX (Wrensch's fit) whose highlights roll off and bright colours pass to white; "
+        "aces, the ACES RRT and sRGB output transform in Hill's fit (darker mid tones). `rt render --display` "
+        "overrides it; the PNG's metadata names it (key rt:display).",
     )
 
     @field_validator("aspect_ratio", mode="before")

@@ -431,7 +431,9 @@ class Mesh(SurfaceBase):
     `smooth`, normals are interpolated across each triangle from the file's vertex normals (or,
     where it has none, from the average of the faces around each vertex). Texture coordinates
     from the file drive image textures. Each face's front is on the side its corners turn
-    counter-clockwise around.
+    counter-clockwise around. An OBJ file's own materials (its `.mtl` library, `usemtl` per
+    face) are used when `material` is left out, each entry as the nearest of ours
+    (docs/meshes.md, "Materials from a .mtl file").
 
     ```yaml
     type: mesh
@@ -455,9 +457,19 @@ class Mesh(SurfaceBase):
         None, description="Inline mesh: the faces, each a list of at least 3 indices into `vertices`, counted from 0."
     )
     smooth: bool = Field(False, strict=True, description="Interpolate vertex normals across each triangle (shading only).")
+    material: Optional[MaterialSlot] = Field(
+        None,
+        description="Surface material: a name from `materials:` or an inline material. Required, except for an OBJ "
+        "file with a material library (`mtllib`): left out, each face gets the nearest material to its `usemtl` entry "
+        "(docs/meshes.md); given, it replaces the library's materials for every face.",
+    )
 
     @model_validator(mode="after")
     def _one_source(self) -> "Mesh":
+        if self.material is None and (self.file is None or not self.file.lower().endswith(".obj")):
+            # Only an OBJ can carry its own materials; the message is the one any surface gets.
+            raise field_error("material", "missing required key 'material' (only a mesh from an .obj file with a "
+                              "material library may leave it out)")
         inline = self.vertices is not None or self.faces is not None
         if self.file is not None and inline:
             raise field_error("file", "give either `file` or `vertices` and `faces`, not both")

@@ -1,8 +1,8 @@
 """Build the glTF 2.0 model behind the gallery's imported scene, from code, so that its every byte
 has a known source.
 
-    python scenes/generate_gltf.py            # rewrite scenes/models/still_life.glb
-    python scenes/generate_gltf.py --check    # exit 1 if the committed file differs
+    python scenes/generate_gltf.py            # rewrite scenes/models/still_life.glb and its import
+    python scenes/generate_gltf.py --check    # exit 1 if a committed file differs
     python scenes/generate_gltf.py --triangles 1000000 -o big.glb   # a dense model for timing `rt import`
 
 The model is what an exporter writes: a node tree with transforms given as translation,
@@ -10,7 +10,9 @@ rotation and scale, one mesh placed by several nodes (the fruit), indexed triang
 and texture coordinates, metallic-roughness materials with a base-colour texture and the
 transmission, ior and clearcoat extensions, KHR_lights_punctual lights and a perspective camera.
 `rt import scenes/models/still_life.glb -o scenes/still_life.yaml` turns it into the scene the
-gallery renders. Needs pygltflib (`pip install '.[gltf]'`).
+gallery renders (scenes/still_life.yaml and scenes/still_life_assets/), which this script writes
+too, exactly as the command does but for the first line naming the schema, as every shipped
+scene's does. Needs pygltflib (`pip install '.[gltf]'`).
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 MODEL = HERE / "models" / "still_life.glb"
+SCENE = HERE / "still_life.yaml"
+SCHEMA_LINE = "# yaml-language-server: $schema=../schemas/scene.schema.json\n"
 
 FLOAT, UINT32 = 5126, 5125
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -75,7 +79,8 @@ class Builder:
                                           roughnessFactor=roughness)
         if texture is not None:
             pbr.baseColorTexture = self.g.TextureInfo(index=texture)
-        mat = self.g.Material(name=name, pbrMetallicRoughness=pbr, extensions=extensions or {})
+        # Two-sided, as every rt surface is: the import then has nothing to warn about.
+        mat = self.g.Material(name=name, pbrMetallicRoughness=pbr, extensions=extensions or {}, doubleSided=True)
         for ext in mat.extensions:
             if ext not in self.doc.extensionsUsed:
                 self.doc.extensionsUsed.append(ext)
@@ -98,7 +103,7 @@ class Builder:
         self.doc.nodes.append(self.g.Node(name=name, children=list(children), **fields))
         return len(self.doc.nodes) - 1
 
-    def save(self, path: Path) -> bytes:
+    def save(self) -> bytes:
         self.doc.buffers = [self.g.Buffer(byteLength=len(self.blob))]
         self.doc.set_binary_blob(bytes(self.blob))
         data = b"".join(self.doc.save_to_bytes())
@@ -185,7 +190,9 @@ def still_life() -> bytes:
     wood = b.material("wood", (1, 1, 1), 0.0, 0.55, texture=b.png_texture(wood_pixels()))
     floor = b.material("floor", (0.55, 0.55, 0.52), 0.0, 0.8)
     glass = b.material("glass", (1, 1, 1), 0.0, 0.0, extensions={
-        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5}})
+        "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.5},
+        # A volume makes it a solid of glass rather than a thin sheet (the vase is closed at its top).
+        "KHR_materials_volume": {"thicknessFactor": 0.1}})
     gold = b.material("gold", (1.0, 0.78, 0.34), 1.0, 0.25)
     fruit = b.material("fruit", (0.65, 0.06, 0.04), 0.0, 0.35)
     jug = b.material("glazed", (0.10, 0.22, 0.55), 0.0, 0.5, extensions={
@@ -194,7 +201,14 @@ def still_life() -> bytes:
     top = b.mesh("table_top", *box((1.6, 0.06, 0.9)), wood)
     leg = b.mesh("table_leg", *box((0.07, 0.72, 0.07)), wood)
     ground = b.mesh("floor", *box((8.0, 0.02, 8.0)), floor)
-    vase_profile = [(0.0, 0.0), (0.07, 0.0), (0.09, 0.05), (0.1, 0.12), (0.07, 0.22), (0.045, 0.3), (0.055, 0.34)]
+    wall = b.mesh("wall", *box((8.0, 4.0, 0.02)), b.material("plaster", (0.62, 0.6, 0.56), 0.0, 0.9))
+    window = b.material("window", (0.0, 0.0, 0.0), 0.0, 1.0)
+    # An emissive panel, as exporters write an area light: emissiveFactor times the strength extension.
+    b.doc.materials[window].emissiveFactor = [1.0, 0.95, 0.88]
+    b.doc.materials[window].extensions = {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}
+    b.doc.extensionsUsed.append("KHR_materials_emissive_strength")
+    panel = b.mesh("window", *box((1.4, 1.4, 0.02)), window)
+    vase_profile = [(0.0, 0.0), (0.07, 0.0), (0.09, 0.05), (0.1, 0.12), (0.07, 0.22), (0.045, 0.3), (0.055, 0.34), (0.0, 0.34)]
     vase = b.mesh("vase", *lathe(vase_profile, 48), glass)
     bowl_profile = [(0.0, 0.0), (0.08, 0.0), (0.15, 0.04), (0.19, 0.1), (0.185, 0.1), (0.145, 0.045), (0.0, 0.012)]
     bowl = b.mesh("bowl", *lathe(bowl_profile, 48), gold)
@@ -214,12 +228,16 @@ def still_life() -> bytes:
     top_node = b.node("top", mesh=top, translation=[0.0, 0.75, 0.0])
     table = b.node("table", children=[top_node, *legs, bowl_node, vase_node, jug_node], translation=[0.0, 0.0, 0.0])
     floor_node = b.node("floor", mesh=ground, translation=[0.0, -0.01, 0.0])
+    wall_node = b.node("wall", mesh=wall, translation=[0.0, 2.0, -1.6])
+    # The panel stands to the left, turned 60 degrees about y to face the table.
+    face = [0.0, math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))]
+    panel_node = b.node("window", mesh=panel, translation=[-2.4, 1.6, 0.4], rotation=face)
 
     b.doc.extensionsUsed.append("KHR_lights_punctual")
     b.doc.extensions = {"KHR_lights_punctual": {"lights": [
-        {"type": "spot", "name": "key", "color": [1.0, 0.92, 0.8], "intensity": 60.0,
-         "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.55}},
-        {"type": "point", "name": "fill", "color": [0.7, 0.8, 1.0], "intensity": 8.0},
+        {"type": "spot", "name": "key", "color": [1.0, 0.92, 0.8], "intensity": 4000.0,
+         "spot": {"innerConeAngle": 0.45, "outerConeAngle": 0.8}},
+        {"type": "point", "name": "fill", "color": [0.7, 0.8, 1.0], "intensity": 800.0},
     ]}}
     # The spot hangs above the table and looks straight down (glTF lights shine along -z).
     down = [-math.sin(math.pi / 4), 0.0, 0.0, math.cos(math.pi / 4)]
@@ -231,9 +249,9 @@ def still_life() -> bytes:
     # Looking at the table top from the front, a little above it: a turn down about x.
     tilt = math.radians(-16)
     cam = b.node("camera", camera=0, translation=[0.0, 1.35, 2.3], rotation=[math.sin(tilt / 2), 0.0, 0.0, math.cos(tilt / 2)])
-    b.doc.scenes.append(g.Scene(name="still life", nodes=[table, floor_node, key, fill, cam]))
+    b.doc.scenes.append(g.Scene(name="still life", nodes=[table, floor_node, wall_node, panel_node, key, fill, cam]))
     b.doc.scene = 0
-    return b.save(MODEL)
+    return b.save()
 
 
 def dense(triangles: int) -> bytes:
@@ -247,26 +265,59 @@ def dense(triangles: int) -> bytes:
     mesh = b.mesh("dense", *lathe(profile, segments), mat)
     b.doc.scenes.append(b.g.Scene(nodes=[b.node("dense", mesh=mesh)]))
     b.doc.scene = 0
-    return b.save(Path("dense.glb"))
+    return b.save()
+
+
+def imported(model: bytes) -> dict:
+    """What `rt import` writes for the model (relative name -> bytes): the scene file, the schema
+    line put first, and every file of its assets folder."""
+    import tempfile
+
+    sys.path.insert(0, str(HERE.parent))
+    from rt.importing import import_gltf
+
+    with tempfile.TemporaryDirectory() as tmp:
+        glb = Path(tmp) / MODEL.name
+        glb.write_bytes(model)
+        out = Path(tmp) / "out"
+        out.mkdir()
+        result = import_gltf(glb, out / SCENE.name)
+        files = {SCENE.name: SCHEMA_LINE.encode() + result.scene.read_bytes()}
+        for f in sorted(result.assets.iterdir()):
+            files[f"{result.assets.name}/{f.name}"] = f.read_bytes()
+    return files
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if the committed model differs")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a committed file differs")
     parser.add_argument("--triangles", type=int, help="write a dense model of about this many triangles instead")
-    parser.add_argument("-o", "--output", type=Path, help="where to write (default: scenes/models/still_life.glb)")
+    parser.add_argument("-o", "--output", type=Path, help="where to write the dense model")
     args = parser.parse_args(argv)
-    data = dense(args.triangles) if args.triangles else still_life()
-    out = args.output or MODEL
-    if args.check:
-        if not out.exists() or out.read_bytes() != data:
-            print(f"{out} differs from what scenes/generate_gltf.py writes", file=sys.stderr)
-            return 1
-        print(f"{out}: up to date")
+    if args.triangles:
+        out = args.output or Path("dense.glb")
+        data = dense(args.triangles)
+        out.write_bytes(data)
+        print(f"wrote {out} ({len(data)} bytes)")
         return 0
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_bytes(data)
-    print(f"wrote {out} ({len(data)} bytes)")
+    model = still_life()
+    files = {f"models/{MODEL.name}": model, **imported(model)}
+    assets = HERE / f"{SCENE.stem}_assets"
+    if args.check:
+        stale = [name for name, data in files.items() if not (HERE / name).is_file() or (HERE / name).read_bytes() != data]
+        extra = sorted(f.name for f in assets.iterdir() if f"{assets.name}/{f.name}" not in files) if assets.is_dir() else []
+        if stale or extra:
+            print("differs from what scenes/generate_gltf.py writes: " + ", ".join(stale + extra), file=sys.stderr)
+            return 1
+        print(f"{len(files)} files up to date")
+        return 0
+    if assets.is_dir():
+        for f in assets.iterdir():
+            f.unlink()
+    for name, data in files.items():
+        (HERE / name).parent.mkdir(parents=True, exist_ok=True)
+        (HERE / name).write_bytes(data)
+    print(f"wrote {len(files)} files: the model, {SCENE.name} and {assets.name}/")
     return 0
 
 

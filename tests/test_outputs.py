@@ -95,7 +95,7 @@ def test_a_write_that_fails_after_rendering_rescues_the_samples(tmp_path, monkey
     key = RenderKey("cd" * 32, 3, 2, 4, 1)
     opts = RenderOptions(scene=tmp_path / "s.yaml", output=tmp_path / "out.png", hdr=tmp_path / "out.pfm")
 
-    def full_disk(path, image):
+    def full_disk(path, image, *png_options):  # the display transform and text of a PNG
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(film_module, "write_image", full_disk)
@@ -124,7 +124,7 @@ def test_with_save_state_the_state_is_written_before_the_images(tmp_path, monkey
     film = Film(np.full((2, 3, 3), 0.5), np.full((2, 3, 3), 0.25), 2)
     key = RenderKey("cd" * 32, 3, 2, 4, 1)
     opts = RenderOptions(scene=tmp_path / "s.yaml", output=tmp_path / "out.png", save_state=tmp_path / "run.npz")
-    monkeypatch.setattr(film_module, "write_image", lambda path, image: (_ for _ in ()).throw(OSError(errno.EIO, "I/O error")))
+    monkeypatch.setattr(film_module, "write_image", lambda path, image, *png_options: (_ for _ in ()).throw(OSError(errno.EIO, "I/O error")))
     with pytest.raises(Stop):
         outputs.write_outputs(opts, film, key, fail)
     assert f"error: cannot write {tmp_path / 'out.png'}: I/O error; the samples are saved in {tmp_path / 'run.npz'}" in capsys.readouterr().err

@@ -8,8 +8,8 @@ from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
 from ..kernel_flags import INSTANCES, MEDIA, MESHES
-from ..numerics.vec import dot, madd, max_abs, xform_vector
-from ..trees import INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from ..numerics.vec import dot, madd, max_abs, unit, xform_normal, xform_point, xform_vector
+from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from . import (BOX, DISK, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE, boxes, meshes,
                planar, spheres)
 from .boxes import box_derivatives, box_surface, hit_box, sample_box_surface
@@ -121,6 +121,23 @@ def interaction(S, prim, o, d, t, time, want_uv):
     if MEDIA and kind == MEDIUM:
         return madd(o, d, t), (1.0, 0.0, 0.0), 0.0, 0.0
     return surface(kind, S, prim, o, d, t, time, want_uv)
+
+
+@target.device
+def world_interaction(S, prim, inst, o, d, t, time, want_uv, volume):
+    """`interaction` of a hit found in world space on instance `inst`: point, unit normal and
+    (u, v) in world space, and the normal in the instance's own space (what a tree's bounds
+    read). The surface is queried in the instance's space (a volume event, which has no
+    surface, on the world's ray), as the path tracer and every pass that follows its rays do."""
+    if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
+        oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+        dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+        po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
+        p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
+        n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
+        return p, n, u, v, no
+    p, n, u, v = interaction(S, prim, o, d, t, time, want_uv)
+    return p, n, u, v, n
 
 
 

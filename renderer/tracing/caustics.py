@@ -24,14 +24,13 @@ import numpy as np
 
 from .. import target
 from ..camera import CAM_CLOSE, CAM_OPEN, camera_importance
-from ..kernel_flags import INSTANCES, MOTION
+from ..kernel_flags import MOTION
 from ..light_emission import emit_photon
 from ..materials import (DIELECTRIC, MAT_IOR, MAT_KIND, NO_TANGENT, emits, eval_bsdf, has_density, has_shading_map, is_anisotropic, is_zero,
                          material_at, sample_bsdf, scatters)
 from ..numerics.rng import DIM_TIME, bounce_dim, light_dim, path_key, uniform
-from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin
-from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from ..numerics.vec import dot, neg, sub, unit
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction
 from .integrator import SHADOW_MARGIN
 from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
@@ -71,14 +70,7 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
         if specular == 0 and S.caustic_prim[prim] == 0:
             return -1, 0.0, 0.0, 0.0  # not aimed well enough: the path tracer's path
         mat = hit_material(S.prims_i, prim)
-        if INSTANCES and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
-            oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
-            dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-            po, no, u, v = interaction(S, prim, oo, dd, t, time, False)
-            p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
-            n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
-        else:
-            p, n, u, v = interaction(S, prim, o, d, t, time, False)
+        p, n, u, v, _ = world_interaction(S, prim, inst, o, d, t, time, False, False)
         if emits(S.mat_i, mat) and not scatters(S.mat_i, mat):
             return -1, 0.0, 0.0, 0.0
         if has_shading_map(S.mat_i, mat):

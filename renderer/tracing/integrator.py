@@ -9,7 +9,7 @@ from ..camera import camera_ray
 from ..flat import INTEGRATOR_CAUSTICS, INTEGRATOR_GUIDED, INTEGRATOR_MIS
 from ..guide_records import RECORDS_PER_PATH, add_to_records, no_records, open_record
 from ..guiding import guide_leaf, pdf_guide, sample_guide
-from ..kernel_flags import CAUSTICS, GUIDING, INSTANCES, SURFACE_MAPS
+from ..kernel_flags import CAUSTICS, GUIDING, SURFACE_MAPS
 from ..lights import bsdf_weight, light_of_hit, lights_to_sample, pdf_li, radiance_escaped, sample_li
 from ..materials import (MICROFACETS, NO_TANGENT, emits, is_anisotropic, emitted_at, eval_bsdf, has_density, has_shading_map, is_zero, material_at,
                          pdf_bsdf, reads_uv, same_side, sample_bsdf, scatters, shading_frame)
@@ -17,9 +17,8 @@ from ..adaptive import pixel_converged
 from ..config import BATCHES
 from ..film_sums import add_sample
 from ..numerics.rng import bounce_dim, guide_dim, light_dim, sample_key, uniform
-from ..numerics.vec import dot, neg, sub, unit, xform_normal, xform_point, xform_vector
-from ..shapes.dispatch import hit_material, interaction, is_volume, spawn_origin, world_derivatives
-from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
+from ..numerics.vec import dot, neg, sub, unit
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction, world_derivatives
 from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
 
@@ -110,16 +109,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         maps = has_shading_map(S.mat_i, mat)
         # (u, v) only where the material's texture reads it (an image) or a map does: see surface().
         want_uv = reads_uv(S.mat_i, mat) or maps
-        if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
-            oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
-            dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-            po, no, u, v = interaction(S, prim, oo, dd, t, time, want_uv)
-            p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
-            n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
-            n_tree = no
-        else:
-            p, n, u, v = interaction(S, prim, o, d, t, time, want_uv)
-            n_tree = n
+        p, n, u, v, n_tree = world_interaction(S, prim, inst, o, d, t, time, want_uv, volume)
         # A volume event has no side: its stand-in normal counts as facing the ray.
         front = volume or dot(d, n) < 0.0
         n_front = n if front else neg(n)

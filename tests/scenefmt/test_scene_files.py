@@ -110,6 +110,11 @@ EXPECTED = {
         {"quad": 1, "instance": 1040}, (480, 270), 64, 6,
         dict(look_from=(5, 26, 15), look_at=(0, 0, -1), vfov=50), (0.004, 0.006, 0.016),
     ),
+    # Issue 35: imported by `rt import` from the glTF model scenes/generate_gltf.py builds.
+    "still_life.yaml": (
+        {"mesh": 7, "instance": 7}, (640, 426), 64, 12,
+        dict(look_from=(0, 1.35, 2.3), look_at=(0, 0.78921745537, 0.344318854004), vfov=32), BLACK,
+    ),
     "material_spheres.yaml": (
         {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=26), "image",
     ),
@@ -411,7 +416,7 @@ def test_the_torus_knot_is_the_one_meshgen_makes(tmp_path):
 
 
 @pytest.mark.parametrize("script, small", [("generate.py", None), ("generate_sky.py", "sky.pfm"), ("generate_many_lights.py", None),
-                                           ("generate_smoke.py", "smoke_plume.npz")])
+                                           ("generate_gltf.py", None), ("generate_smoke.py", "smoke_plume.npz")])
 def test_generated_files_are_up_to_date(script, small):
     """What each of the scripts in scenes/ writes is what is committed (--check), and the sky map
     it writes stays small."""

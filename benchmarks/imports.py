@@ -60,7 +60,7 @@ CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
     "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
     "renderer.light_tree", "renderer.light_bounds", "renderer.sky", "renderer.sky_data", "renderer.sun",
-    "renderer.guiding", "renderer.caustic_targets", "renderer.light_emission",
+    "renderer.guiding", "renderer.caustic_targets", "renderer.light_emission", "renderer.grid_media",
 })
 
 

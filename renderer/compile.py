@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.loading import paused_gc
 from scenefmt.shapes import sphere_values
 
-from . import background, camera, caustic_targets, environment, guiding, light_emission, lights, materials, media, motion
+from . import background, camera, caustic_targets, environment, grid_media, guiding, light_emission, lights, materials, media, motion
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
@@ -28,7 +28,7 @@ from .materials.table import COLOUR_KEYS, MAT_BUMP_MAP, MAT_NORMAL_MAP, texture_
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
-from .textures import TextureTables
+from .textures import TextureTables, perlin_tables
 from .trees import INST_ROOT, INST_WORLD_FROM_OBJECT, INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I, tree_prims
 
 
@@ -99,6 +99,10 @@ class _Walk:
         self.mat_rows: dict[int, int] = {}
         self.bnd_kind: list[int] = []
         self.bnd_rows: list[list] = []
+        # The density fields of varying media, (bnd_f row of the first, its rows), placed among the
+        # boundary rows: a grid's rows stay one numpy block (a 256^3 grid as lists would take 30 bytes a value).
+        self.bnd_fields: list[tuple[int, np.ndarray]] = []
+        self.bnd_count = 0
         self.trees: list[_Tree] = []
         self.tree_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
@@ -137,7 +141,21 @@ class _Walk:
         """The material row of the isotropic phase function that scatters inside a medium."""
         if id(medium) in self.mat_rows:
             return self.mat_rows[id(medium)]
-        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo)))
+        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo), medium.model.phase_g))
+
+    def varying_medium(self, medium: MediumNode, m, first: int, boundaries: int) -> tuple[int, list]:
+        """The row of a medium whose density varies, bounded by boundary rows first.., its field's
+        rows appended to the boundary table (grid_media.field_rows) in the space of a shape placed
+        by m."""
+        full = np.eye(4)
+        full[:3, :] = np.asarray(m, np.float64).reshape(3, 4)
+        medium_from_tree = np.linalg.inv(full)[:3, :]
+        header = self.bnd_count
+        rows = grid_media.field_rows(medium.model, medium.grid, medium_from_tree, header, perlin_tables)
+        self.bnd_fields.append((header, rows))
+        self.bnd_count += len(rows)
+        majorant = float(rows[0, grid_media.F_MAJORANT])
+        return media.medium_row(majorant, first, boundaries, self.media_count, header)
 
     def similarity(self, m) -> tuple:
         known = self.similarities.get(m)
@@ -164,11 +182,15 @@ class _Walk:
         if shape.interior is not None:
             # A medium's boundary is tested as planes or spheres: a box row's faces are made for it.
             bounds = shape_rows(shape.model, m, self.similarity(m), self.shutter, False) if surface[0][0] == BOX else surface
-            first = len(self.bnd_rows)
+            first = self.bnd_count
             for kind, row, _, _ in bounds:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
-            kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            self.bnd_count += len(bounds)
+            if shape.interior.kind == "constant":
+                kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            else:
+                kind, row = self.varying_medium(shape.interior, m, first, len(bounds))
             self.media_count += 1
             lo = tuple(min(r[2][k] for r in bounds) for k in range(3))
             hi = tuple(max(r[3][k] for r in bounds) for k in range(3))
@@ -345,6 +367,24 @@ def _array(rows: list, layout, dtype) -> np.ndarray:
     return np.array(rows, dtype).reshape(len(rows), layout.width)
 
 
+def _boundary_tables(walk: _Walk) -> dict:
+    """bnd_i and bnd_f: the media's boundary rows, with their density fields' rows where they were
+    placed (kind -1: no boundary; a medium finds its field by its header row)."""
+    if not walk.bnd_fields:  # every medium constant: the table as it always was
+        return {"bnd_i": np.array(walk.bnd_kind, np.int32), "bnd_f": np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)}
+    kinds = np.full(walk.bnd_count, -1, np.int32)
+    rows = np.zeros((walk.bnd_count, PRIM_WIDTH))
+    taken = np.zeros(walk.bnd_count, bool)
+    for first, block in walk.bnd_fields:
+        rows[first:first + len(block)] = block
+        taken[first:first + len(block)] = True
+    free = np.nonzero(~taken)[0]  # the boundary rows, in the order they were added
+    kinds[free] = walk.bnd_kind
+    if len(free):
+        rows[free] = np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)
+    return {"bnd_i": kinds, "bnd_f": rows}
+
+
 def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     """Build the trees over the walk's rows and lay everything out as a FlatScene."""
     build_tree = build_bvh if use_bvh else single_leaf
@@ -446,8 +486,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     flat = FlatScene(
         prims_i=cat(prim_i + mesh.prims_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),
-        bnd_i=np.array(walk.bnd_kind, np.int32),
-        bnd_f=np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH),
+        **_boundary_tables(walk),
         tri_i=cat(mesh.tri_i, TRIANGLE_I.width, np.int32),
         mesh_i=np.array(mesh.mesh_i, np.int32).reshape(-1, MESH_I.width),
         verts_f=cat(mesh.verts_f, 3, np.float64),

@@ -10,8 +10,8 @@ nothing on the render path:
 
 from __future__ import annotations
 
-from . import (background, camera, caustic_targets, environment, guide_records, guiding, light_emission, light_tree, lights,
-               materials, media, motion, textures, trees)
+from . import (background, camera, caustic_targets, environment, grid_media, guide_records, guiding, light_emission, light_tree,
+               lights, materials, media, motion, textures, trees)
 from .columns import Layout, describe_all
 from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 
@@ -19,7 +19,7 @@ from .shapes import PRIMITIVE_I, boxes, meshes, planar, spheres
 def declared_layouts() -> list[Layout]:
     """Every table layout the renderer declares, in the order docs/architecture.md lists them."""
     return [
-        PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F,
+        PRIMITIVE_I, spheres.SPHERE_F, spheres.MOVING_SPHERE_F, planar.PLANAR_F, boxes.BOX_F, media.MEDIUM_F, grid_media.FIELD_F,
         meshes.TRIANGLE_I, meshes.MESH_I,
         materials.MATERIAL_I, materials.MATERIAL_F,
         textures.TEXTURE_I, textures.SOLID_F, textures.CHECKER_F, textures.IMAGE_F, textures.NOISE_F,

@@ -214,6 +214,22 @@ def light_kinds(graph: SceneGraph, emitters: list) -> list[LightKind]:
     return found
 
 
+def medium_effects(with_media: list) -> dict:
+    """The effects of the media the shapes `with_media` hold, beyond the constant medium: a density
+    that varies (a grid or noise medium) and an anisotropic phase function."""
+    found = {}
+    varying = [m for m in with_media if m.interior.kind != "constant"]
+    if varying:
+        found["varying_media"] = Effect("", True, _first(varying, lambda m: (
+            f"{format_path(m.path)} holds {m.interior.name or 'a medium'}, a {m.interior.kind} medium")))
+    forward = [m for m in with_media if m.interior.model.phase_g != 0.0]
+    if forward:
+        found["phase_hg"] = Effect("", True, _first(forward, lambda m: (
+            f"{format_path(m.path)} holds {m.interior.name or 'a medium'}, whose phase is henyey_greenstein "
+            f"(g {m.interior.model.phase_g:g})")))
+    return found
+
+
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
@@ -293,6 +309,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["defocus"] = Effect("", True, f"camera {how}, focus distance {cam.focus:g}")
     if with_media:
         found["media"] = Effect("", True, _first(with_media, lambda m: f"{format_path(m.path)} holds {m.interior.name or 'a medium'}"))
+        found.update(medium_effects(with_media))
     if placed:
         found["instances"] = Effect("", True, _first(placed, lambda mw: f"{format_path(mw[0].path)} {mw[1]}"))
     for kind, members in textures_by_kind.items():

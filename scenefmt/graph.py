@@ -22,7 +22,7 @@ from .hdr_files import HdrProblem, hdr_header, hdr_peak, is_hdr
 from .loading import SourceDocument
 from .named_files import NamedFileProblem, locate_named_file
 from .materials import Material, texture_fields
-from .media import ConstantMedium
+from .media import GridMedium, Medium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
 from .sky import SunSkyBackground
 from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, SphereColumns, Triangle
@@ -66,12 +66,18 @@ class MaterialNode:
 
 @dataclass(eq=False)
 class MediumNode:
-    """A participating medium; `albedo` is its phase function's texture."""
+    """A participating medium; `albedo` is its phase function's texture, `grid` a grid medium's
+    checked density array (scenefmt.gridfile: read once, here)."""
 
-    model: ConstantMedium
+    model: Medium
     name: Optional[str]
     path: tuple
     albedo: TextureNode
+    grid: Optional[object] = None
+
+    @property
+    def kind(self) -> str:
+        return self.model.type
 
 
 @dataclass(eq=False)
@@ -421,14 +427,34 @@ class _Resolver:
             return node
         return self.medium(value, None, path)
 
-    def medium(self, model: ConstantMedium, name: Optional[str], path: tuple) -> Optional[MediumNode]:
+    def medium(self, model: Medium, name: Optional[str], path: tuple) -> Optional[MediumNode]:
         albedo = self.texture_slot(model.albedo, path + ("albedo",))
         if albedo is None:
             return None
         self.check_colour(albedo, path + ("albedo",), bounds.MAX_REFLECTANCE, "a reflectance (albedo)")
         node = MediumNode(model, name, path, albedo)
+        if isinstance(model, GridMedium):
+            node.grid = self.grid_data(model, path)
+            if node.grid is None:
+                return None
         self.all_media.append(node)
         return node
+
+    def grid_data(self, model: GridMedium, path: tuple):
+        """A grid medium's checked density array, or None after reporting why."""
+        from .gridfile import FileProblem, GridProblem, read_grid
+
+        where, name = path + ("file",), f"grid file '{model.file}'"
+        resolved = self.named_file("grid file", model.file, where)
+        if resolved is None:
+            return None
+        try:
+            return self.assets.get(f"grid {model.key}", resolved, lambda: read_grid(resolved, model.key))
+        except (GridProblem, FileProblem) as exc:
+            self.error(where, f"{name}: {exc}")
+        except MemoryError as exc:
+            self.error(where, f"{name}: " + memory_message(exc, "read it"))
+        return None
 
     # --- shapes and groups ---------------------------------------------------------------------
 

@@ -19,7 +19,7 @@ from ..film_sums import add_sample
 from ..numerics.rng import bounce_dim, guide_dim, light_dim, sample_key, uniform
 from ..numerics.vec import dot, neg, sub, unit
 from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_derivatives, world_interaction
-from .shadow import transmittance
+from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
 
 # The photons' shares of a render that has none (every integrator but caustics).
@@ -205,7 +205,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
                     toward = wi
                 else:
                     toward, reach = sub(x, origin), 1.0 - SHADOW_MARGIN
-                seen = transmittance(S, origin, toward, reach, time, stack, tstack)
+                seen = shadow_transmittance(S, origin, toward, reach, time, stack, tstack, key, bounce)
                 if seen > 0.0:
                     # A delta light (a point, parallel light) is never met by chance: its sample counts in full.
                     w = 1.0 if delta_light else 1.0 / (1.0 + (density / light) ** 2)

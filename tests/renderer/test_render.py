@@ -118,7 +118,7 @@ def test_a_write_that_fails_half_way_leaves_no_file(tmp_path):
         _atomic_write(tmp_path / "x.pfm", half_then_fail)
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ValueError):
-        write_image(tmp_path / "x.pfm", np.zeros((2, 2)))  # not an RGB image
+        write_image(tmp_path / "x.pfm", np.zeros((2, 2, 2)))  # neither an RGB image nor a grey pass
     assert list(tmp_path.iterdir()) == []
 
 

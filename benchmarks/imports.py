@@ -54,13 +54,13 @@ PACKAGES = ("scenefmt", "renderer", "rt")
 FLOOR = frozenset({
     "renderer", "renderer.columns", "renderer.config", "renderer.kernel_flags", "renderer.jit_cache", "renderer.target",
     "renderer.trees", "renderer.flat", "renderer.sampling", "renderer.film_sums", "renderer.adaptive",
-    "renderer.guide_records",
+    "renderer.guide_records", "renderer.motion",
 })
 CATEGORIES = frozenset({
     "renderer.shapes", "renderer.materials", "renderer.textures", "renderer.media", "renderer.camera",
     "renderer.background", "renderer.environment", "renderer.lights", "renderer.light_table", "renderer.punctual",
     "renderer.light_tree", "renderer.light_bounds", "renderer.sky", "renderer.sky_data", "renderer.sun",
-    "renderer.guiding", "renderer.caustic_targets", "renderer.light_emission",
+    "renderer.guiding", "renderer.caustic_targets", "renderer.light_emission", "renderer.grid_media",
 })
 
 

@@ -20,7 +20,7 @@ WIDTH = 256
 # Samples per pixel: more where the light is small or the scene is mostly indirect.
 SPP = {"cornell_box": 512, "cornell_knot": 512, "cornell_smoke": 256, "final_scene": 512, "simple_light": 256,
        "cornell_conductor": 512, "cornell_plastic": 512, "cornell_principled": 512, "cornell_rough_glass": 1024, "cornell_spot": 256,
-       "still_life": 512}
+       "motion_knot": 512, "smoke_plume": 256, "still_life": 512}
 DEFAULT_SPP = 128
 
 

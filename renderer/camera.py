@@ -13,6 +13,7 @@ from scenefmt import affine
 from . import target
 from .columns import Column, Layout
 from .kernel_flags import DEFOCUS, MOTION
+from .motion import map_point, map_vector, maps_at
 from .numerics.rng import DIM_LENS_RETRY, DIM_LENS_X, DIM_LENS_Y, DIM_PIXEL_X, DIM_PIXEL_Y, DIM_TIME, uniform
 from .target import uint64
 
@@ -26,23 +27,82 @@ CAMERA = Layout("camera", "float64", [
     Column("lens_radius", 1, "0 for a pinhole: no defocus"),
     Column("open", 1, "shutter open time"),
     Column("close", 1, "shutter close time"),
+    Column("first_key", 1, "a moving camera: row of its first keyframe in motion_f (motion.py); -1 for one that stands still"),
+    Column("keys", 1, "a moving camera: how many keyframes; 0 for one that stands still. A moving camera's origin, "
+                      "pixel00, du, dv, lens_u and lens_v are in its own space (x right, y up, looking down -z), "
+                      "placed in the world by its keyframes at the ray's time"),
 ])
 CAM_ORIGIN, CAM_PIXEL00, CAM_DU, CAM_DV = CAMERA.offsets("origin", "pixel00", "du", "dv")
 CAM_LENS_U, CAM_LENS_V, CAM_LENS_RADIUS = CAMERA.offsets("lens_u", "lens_v", "lens_radius")
 CAM_OPEN, CAM_CLOSE = CAMERA.offsets("open", "close")
+CAM_FIRST_KEY, CAM_KEYS = CAMERA.offsets("first_key", "keys")
 
 
-def camera_row(graph) -> list[float]:
-    """The CAMERA row of a scene graph's camera, image size and shutter."""
+def _frame(look_from, look_at, up):
+    """The camera's axes (u right, v up, w backwards) and centre."""
+    center = tuple(float(x) for x in look_from)
+    w = affine.unit(affine.sub(center, look_at))
+    u = affine.unit(affine.cross(up, w))
+    v = affine.cross(w, u)
+    return u, v, w, center
+
+
+def camera_keys(graph) -> tuple[list, list]:
+    """The times and world_from_camera maps of a moving camera's keyframes (the shutter open:
+    else none); empty lists for a camera that stands still."""
+    cam = graph.camera
+    if not cam.moves or not graph.shutter.close > graph.shutter.open:
+        return [], []
+    times, maps = [], []
+    for key in cam.motion:
+        u, v, w, c = _frame(*cam.frame_at_key(key))
+        times.append(float(key.time))
+        maps.append(tuple((u[r], v[r], w[r], c[r]) for r in range(3)))
+    return times, maps
+
+
+def with_camera_keys(motion_f, graph):
+    """motion_f with a moving camera's keyframe rows appended (camera_row names them)."""
+    import numpy as np
+
+    from .motion import keyframe_rows
+
+    times, maps = camera_keys(graph)
+    if not times:
+        return np.ascontiguousarray(motion_f)
+    return np.ascontiguousarray(np.concatenate([motion_f, keyframe_rows(times, maps)]))
+
+
+def _still_frame(cam):
+    """(look_from, look_at, up) of a camera that stands still: its keyframes' if they all agree
+    (or the shutter never opens: its first keyframe's), else its own."""
+    if cam.motion:
+        return cam.frame_at_key(cam.motion[0])
+    return cam.look_from, cam.look_at, cam.up
+
+
+def camera_row(graph, first_key: int = -1) -> list[float]:
+    """The CAMERA row of a scene graph's camera, image size and shutter. A moving camera's
+    keyframes are rows first_key.. of motion_f (with_camera_keys puts them there), and its
+    vectors are in its own space."""
     cam, image = graph.camera, graph.image
     width, height = image.width, image.pixel_height
-    center = tuple(float(x) for x in cam.look_from)
+    times, _ = camera_keys(graph)
+    if times:
+        u, v, w, center = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.0)
+    elif cam.moves:
+        # A shutter that never opens sees the camera where its keyframes put it at that time.
+        from .motion import keyframe_rows, map_at_numpy
+
+        keys = [_frame(*cam.frame_at_key(key)) for key in cam.motion]
+        rows = keyframe_rows([key.time for key in cam.motion], [tuple((f[0][r], f[1][r], f[2][r], f[3][r]) for r in range(3)) for f in keys])
+        m = map_at_numpy(rows, float(graph.shutter.open))
+        u, v, w, center = (tuple(float(x) for x in m[:, k]) for k in range(4))
+    else:
+        u, v, w, center = _frame(*_still_frame(cam))
     focus = cam.focus
     viewport_h = 2.0 * math.tan(math.radians(cam.vfov) / 2.0) * focus
     viewport_w = viewport_h * (width / height)
-    w = affine.unit(affine.sub(center, cam.look_at))
-    u = affine.unit(affine.cross(cam.up, w))
-    v = affine.cross(w, u)
     du = tuple(viewport_w * u[k] / width for k in range(3))
     dv = tuple(-viewport_h * v[k] / height for k in range(3))
     upper_left = tuple(center[k] - focus * w[k] - viewport_w * u[k] / 2 + viewport_h * v[k] / 2 for k in range(3))
@@ -50,7 +110,8 @@ def camera_row(graph) -> list[float]:
     radius = cam.lens_radius
     return CAMERA.row(origin=center, pixel00=pixel00, du=du, dv=dv, lens_u=affine.scale(u, radius),
                       lens_v=affine.scale(v, radius), lens_radius=float(radius),
-                      open=float(graph.shutter.open), close=float(graph.shutter.close))
+                      open=float(graph.shutter.open), close=float(graph.shutter.close),
+                      first_key=float(first_key if times else -1), keys=float(len(times)))
 
 
 @target.device
@@ -102,6 +163,17 @@ def camera_ray(cam, i, j, key):
         into_shutter = uniform(key, DIM_TIME) * (cam[CAM_CLOSE] - cam[CAM_OPEN])
     time = cam[CAM_OPEN] + into_shutter
     return origin, (aim[0] - origin[0], aim[1] - origin[1], aim[2] - origin[2]), time
+
+
+@target.device
+def camera_ray_at(cam, motion_f, i, j, key):
+    """`camera_ray` of a camera that may move: a moving one's ray, cast in its own space, is
+    placed in the world by its keyframes at the ray's time."""
+    o, d, time = camera_ray(cam, i, j, key)
+    if MOTION and cam[CAM_KEYS] > 0.0:
+        world, _ = maps_at(motion_f, int(cam[CAM_FIRST_KEY]), int(cam[CAM_KEYS]), time)
+        return map_point(world, o), map_vector(world, d), time
+    return o, d, time
 
 
 @target.device

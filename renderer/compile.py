@@ -20,7 +20,7 @@ from scenefmt.graph import GroupNode, InstanceNode, MaterialNode, MediumNode, Sc
 from scenefmt.loading import paused_gc
 from scenefmt.shapes import sphere_values
 
-from . import background, camera, caustic_targets, environment, guiding, light_emission, lights, materials, media
+from . import background, camera, caustic_targets, environment, grid_media, guiding, light_emission, lights, materials, media, motion
 from .bvh import MESH_TRAVERSAL_COST, WIDTH, build_bvh, join, single_leaf, widen
 from .flat import FlatScene
 from .materials import MAT_READS_UV, MATERIAL_F, MATERIAL_I
@@ -28,7 +28,7 @@ from .materials.table import COLOUR_KEYS, MAT_BUMP_MAP, MAT_NORMAL_MAP, texture_
 from .shapes import BOX, MESH_TRIANGLE, PRIM_WIDTH, PRIMITIVE_I, SPHERE, meshes, spheres
 from .shapes.dispatch import shape_rows, similarity_of
 from .shapes.meshes import MESH_I, TRIANGLE_I
-from .textures import TextureTables
+from .textures import TextureTables, perlin_tables
 from .trees import INST_ROOT, INST_WORLD_FROM_OBJECT, INSTANCE_F, INSTANCE_I, NODE_I, TLAS_F, TLAS_I, tree_prims
 
 
@@ -99,12 +99,17 @@ class _Walk:
         self.mat_rows: dict[int, int] = {}
         self.bnd_kind: list[int] = []
         self.bnd_rows: list[list] = []
+        # The density fields of varying media, (bnd_f row of the first, its rows), placed among the
+        # boundary rows: a grid's rows stay one numpy block (a 256^3 grid as lists would take 30 bytes a value).
+        self.bnd_fields: list[tuple[int, np.ndarray]] = []
+        self.bnd_count = 0
         self.trees: list[_Tree] = []
         self.tree_of_group: dict[int, int] = {}
         self.instances: list[tuple[int, tuple]] = []
         self.media_count = 0
-        # Spheres under a non-similarity (ellipsoids), each in a tree of its own: shape id -> tree.
-        self.own_instance: dict[int, int] = {}
+        # Spheres under a non-similarity (ellipsoids) and moving shapes, each in a tree of its own:
+        # shape id -> (tree, its placement in its group).
+        self.own_instance: dict[int, tuple] = {}
         # A scene's many shapes share a few transforms.
         self.similarities: dict[tuple, tuple] = {}
         self.last_transform, self.last_similar = None, False
@@ -136,7 +141,21 @@ class _Walk:
         """The material row of the isotropic phase function that scatters inside a medium."""
         if id(medium) in self.mat_rows:
             return self.mat_rows[id(medium)]
-        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo)))
+        return self._material_row(id(medium), materials.phase_function(self.textures.add(medium.albedo), medium.model.phase_g))
+
+    def varying_medium(self, medium: MediumNode, m, first: int, boundaries: int) -> tuple[int, list]:
+        """The row of a medium whose density varies, bounded by boundary rows first.., its field's
+        rows appended to the boundary table (grid_media.field_rows) in the space of a shape placed
+        by m."""
+        full = np.eye(4)
+        full[:3, :] = np.asarray(m, np.float64).reshape(3, 4)
+        medium_from_tree = np.linalg.inv(full)[:3, :]
+        header = self.bnd_count
+        rows = grid_media.field_rows(medium.model, medium.grid, medium_from_tree, header, perlin_tables)
+        self.bnd_fields.append((header, rows))
+        self.bnd_count += len(rows)
+        majorant = float(rows[0, grid_media.F_MAJORANT])
+        return media.medium_row(majorant, first, boundaries, self.media_count, header)
 
     def similarity(self, m) -> tuple:
         known = self.similarities.get(m)
@@ -163,11 +182,15 @@ class _Walk:
         if shape.interior is not None:
             # A medium's boundary is tested as planes or spheres: a box row's faces are made for it.
             bounds = shape_rows(shape.model, m, self.similarity(m), self.shutter, False) if surface[0][0] == BOX else surface
-            first = len(self.bnd_rows)
+            first = self.bnd_count
             for kind, row, _, _ in bounds:
                 self.bnd_kind.append(kind)
                 self.bnd_rows.append(row)
-            kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            self.bnd_count += len(bounds)
+            if shape.interior.kind == "constant":
+                kind, row = media.medium_row(shape.interior.model.density, first, len(bounds), self.media_count)
+            else:
+                kind, row = self.varying_medium(shape.interior, m, first, len(bounds))
             self.media_count += 1
             lo = tuple(min(r[2][k] for r in bounds) for k in range(3))
             hi = tuple(max(r[3][k] for r in bounds) for k in range(3))
@@ -175,7 +198,8 @@ class _Walk:
         return True
 
     def place(self, group: GroupNode, world_from_group) -> None:
-        """Record the instances that put `group` into the world, flattening nested instances."""
+        """Record the instances that put `group` into the world, flattening nested instances.
+        `world_from_group` is an affine map, or a _Moving one."""
         key = id(group)
         if key not in self.tree_of_group:
             tree = _Tree()
@@ -187,14 +211,29 @@ class _Walk:
             self.instances.append((index, world_from_group))
         for member in group.members:
             if isinstance(member, InstanceNode):
-                self.place(member.group, affine.compose(world_from_group, member.transform))
+                self.place(member.group, _compose(world_from_group, _placement(member.motion, member.transform)))
             elif id(member) in self.own_instance:
-                self.instances.append((self.own_instance[id(member)], affine.compose(world_from_group, member.transform)))
+                tree, inner = self.own_instance[id(member)]
+                self.instances.append((tree, _compose(world_from_group, inner)))
+
+    def own_tree(self, member: ShapeNode) -> None:
+        """Put `member` in a tree of its own, placed by an instance: an ellipsoid (a sphere under
+        a non-similarity) stays a sphere in its own space, and a moving shape is moved as a whole.
+        Its transform is baked into the tree where the shape keeps its kind, else it places it."""
+        own = _Tree()
+        inner = affine.IDENTITY
+        if member.motion is None or not self.add_shape(own, member, member.transform):
+            own = _Tree()
+            self.add_shape(own, member, affine.IDENTITY)
+            inner = member.transform
+        self.own_instance[id(member)] = (len(self.trees), _placement(member.motion, inner))
+        self.trees.append(own)
 
     def plain_sphere(self, member) -> bool:
         """Whether member is a sphere with a material, no medium and a similarity transform: one
         of a run that `spheres.sphere_run_rows` flattens at once."""
-        if type(member) is not ShapeNode or member.interior is not None or member.material is None or member.model.type != "sphere":
+        if (type(member) is not ShapeNode or member.interior is not None or member.material is None or member.model.type != "sphere"
+                or member.motion is not None):
             return False
         m = member.transform
         if m is not self.last_transform:  # shapes without transform steps share one object
@@ -236,14 +275,46 @@ class _Walk:
             if isinstance(member, SphereRunNode):
                 self.sphere_run_node(tree, member)
                 continue
-            if not self.add_shape(tree, member, member.transform):
-                # An ellipsoid: the sphere in its own tree, placed by its transform.
-                own = _Tree()
-                self.add_shape(own, member, affine.IDENTITY)
-                self.own_instance[id(member)] = len(self.trees)
-                self.trees.append(own)
+            if member.motion is not None or not self.add_shape(tree, member, member.transform):
+                self.own_tree(member)
         if run:
             self.sphere_run(tree, run)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Moving:
+    """A placement that moves: world_from_object at each keyframe time (motion.py interpolates)."""
+
+    times: tuple
+    maps: tuple  # affine maps, one per time
+
+    def at(self, time: float):
+        """The map at `time`, as the kernels interpolate it."""
+        m = motion.map_at_numpy(motion.keyframe_rows(self.times, self.maps), time)
+        return tuple(tuple(float(x) for x in row) for row in m)
+
+
+def _placement(node_motion, transform):
+    """A member's placement in its group: its transform, or, when it moves, each keyframe's map
+    after it."""
+    if node_motion is None:
+        return transform
+    times, maps = node_motion
+    return _Moving(times, tuple(affine.compose(m, transform) for m in maps))
+
+
+def _compose(outer, inner):
+    """outer after inner, either of which may move. Where both move, the product is taken at
+    every keyframe time of either and interpolated as one motion (exact where the outer moves
+    rigidly and the inner stands still, an approximation in between otherwise)."""
+    if not isinstance(outer, _Moving) and not isinstance(inner, _Moving):
+        return affine.compose(outer, inner)
+    if not isinstance(outer, _Moving):
+        return _Moving(inner.times, tuple(affine.compose(outer, m) for m in inner.maps))
+    if not isinstance(inner, _Moving):
+        return _Moving(outer.times, tuple(affine.compose(m, inner) for m in outer.maps))
+    times = tuple(sorted(set(outer.times) | set(inner.times)))
+    return _Moving(times, tuple(affine.compose(outer.at(t), inner.at(t)) for t in times))
 
 
 class _MeshTables:
@@ -294,6 +365,24 @@ def _inverse_affine(m: np.ndarray) -> np.ndarray:
 
 def _array(rows: list, layout, dtype) -> np.ndarray:
     return np.array(rows, dtype).reshape(len(rows), layout.width)
+
+
+def _boundary_tables(walk: _Walk) -> dict:
+    """bnd_i and bnd_f: the media's boundary rows, with their density fields' rows where they were
+    placed (kind -1: no boundary; a medium finds its field by its header row)."""
+    if not walk.bnd_fields:  # every medium constant: the table as it always was
+        return {"bnd_i": np.array(walk.bnd_kind, np.int32), "bnd_f": np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)}
+    kinds = np.full(walk.bnd_count, -1, np.int32)
+    rows = np.zeros((walk.bnd_count, PRIM_WIDTH))
+    taken = np.zeros(walk.bnd_count, bool)
+    for first, block in walk.bnd_fields:
+        rows[first:first + len(block)] = block
+        taken[first:first + len(block)] = True
+    free = np.nonzero(~taken)[0]  # the boundary rows, in the order they were added
+    kinds[free] = walk.bnd_kind
+    if len(free):
+        rows[free] = np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH)
+    return {"bnd_i": kinds, "bnd_f": rows}
 
 
 def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
@@ -347,20 +436,44 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         joined = parts[0] if len(parts) == 1 else np.concatenate(parts)
         return np.ascontiguousarray(joined, dtype=dtype)
 
-    # Instances: world bounds from the 8 corners of each tree's root box.
+    # Instances: world bounds from the 8 corners of each tree's root box; a moving instance's
+    # over its whole motion (motion.motion_bounds), its keyframes in motion_f.
     count = len(walk.instances)
-    o2w = np.array([m for _, m in walk.instances], np.float64).reshape(count, 12)
+    open_, close = walk.shutter
+    placements, keys, key_rows = [], [], []
+    key_count = 0
+    for _, m in walk.instances:
+        if isinstance(m, _Moving) and close > open_:
+            rows = motion.keyframe_rows(m.times, m.maps)
+            key_rows.append(rows)
+            keys.append((key_count, len(rows)))
+            key_count += len(rows)
+            m = tuple(tuple(float(x) for x in row) for row in motion.map_at_numpy(rows, open_))
+        else:
+            # A shutter that never opens sees a moving instance where it is at that time.
+            m = m.at(open_) if isinstance(m, _Moving) else m
+            keys.append((-1, 0))
+            key_rows.append(None)
+        placements.append(m)
+    o2w = np.array(placements, np.float64).reshape(count, 12)
     inst_lo, inst_hi = np.empty((count, 3)), np.empty((count, 3))
     for k, (tree, _) in enumerate(walk.instances):
         lo, hi = tree_lo[tree], tree_hi[tree]
+        if key_rows[k] is not None and np.all(np.isfinite(lo)):
+            inst_lo[k], inst_hi[k] = motion.motion_bounds(key_rows[k], lo, hi)
+            continue
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         world = corners @ o2w[k].reshape(3, 4)[:, :3].T + o2w[k].reshape(3, 4)[:, 3]
         inst_lo[k], inst_hi[k] = world.min(axis=0), world.max(axis=0)
+    moving_rows = [rows for rows in key_rows if rows is not None]
+    motion_f = (np.concatenate(moving_rows) if moving_rows else np.zeros((0, motion.MOTION_F.width)))
     inst_i = INSTANCE_I.array(
         count,
         root=[tree_root[tree] for tree, _ in walk.instances],
-        untransformed=[int(affine.is_identity(m)) for _, m in walk.instances],
+        untransformed=[int(affine.is_identity(m) and first < 0) for m, (first, _) in zip(placements, keys)],
         serial=np.arange(count),
+        first_key=[first for first, _ in keys],
+        keys=[n for _, n in keys],
     )
     inst_f = INSTANCE_F.array(count, world_from_object=o2w,
                               object_from_world=np.array([_inverse_affine(m) for m in o2w]).reshape(count, 12))
@@ -373,8 +486,7 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
     flat = FlatScene(
         prims_i=cat(prim_i + mesh.prims_i, PRIMITIVE_I.width, np.int32),
         prims_f=cat(prim_f, PRIM_WIDTH, np.float64),
-        bnd_i=np.array(walk.bnd_kind, np.int32),
-        bnd_f=np.array(walk.bnd_rows, np.float64).reshape(-1, PRIM_WIDTH),
+        **_boundary_tables(walk),
         tri_i=cat(mesh.tri_i, TRIANGLE_I.width, np.int32),
         mesh_i=np.array(mesh.mesh_i, np.int32).reshape(-1, MESH_I.width),
         verts_f=cat(mesh.verts_f, 3, np.float64),
@@ -386,10 +498,11 @@ def _assemble(walk: _Walk, use_bvh: bool) -> FlatScene:
         inst_f=np.ascontiguousarray(inst_f[order]),
         tlas_f=TLAS_F.array(len(tlas.lo), lo=tlas.lo, hi=tlas.hi),
         tlas_i=TLAS_I.array(len(tlas.a), next=tlas.a, count=tlas.n, axis=tlas.axis),
+        motion_f=camera.with_camera_keys(motion_f, walk.graph),
         mat_i=mat_i,
         mat_f=_array(walk.mat_f, MATERIAL_F, np.float64),
         **walk.textures.arrays(),
-        camera=np.array(camera.camera_row(walk.graph), np.float64),
+        camera=np.array(camera.camera_row(walk.graph, first_key=len(motion_f)), np.float64),
         background=np.array(background.background_row(walk.graph), np.float64),
         **lights.no_lights(0, 0),
         **environment.no_environment(),

@@ -37,6 +37,9 @@ class FlatScene(NamedTuple):
     inst_f: np.ndarray  # INSTANCE_F
     tlas_f: np.ndarray  # TLAS_F
     tlas_i: np.ndarray  # TLAS_I
+    # Keyframes of the placements that move over the shutter (motion.py): moving instances name
+    # theirs in inst_i, a moving camera in its row; (0, MOTION_F.width) when nothing moves.
+    motion_f: np.ndarray  # motion.MOTION_F
     # Materials and textures: materials.py, textures.py.
     mat_i: np.ndarray  # MATERIAL_I
     mat_f: np.ndarray  # MATERIAL_F

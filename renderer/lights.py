@@ -72,7 +72,7 @@ from . import target
 from . import environment
 from .background import BACKGROUND_IMAGE, BG_KIND, BG_SUN, background
 from .environment import environment_radiance, sample_environment
-from .kernel_flags import ENVIRONMENT, LIGHT_TREE, LIGHTS, PUNCTUAL
+from .kernel_flags import ENVIRONMENT, LIGHT_TREE, LIGHTS, MOTION, PUNCTUAL
 from .light_table import (AREA_LIGHT, BY_AREA, BY_CONE, BY_RECTANGLE, DIRECTIONAL_LIGHT, ENVIRONMENT_LIGHT, KINDS, LIGHT_AREA,
                           LIGHT_BEAM, LIGHT_CDF, LIGHT_CORNER, LIGHT_COS_CUTOFF, LIGHT_CUTOFF, LIGHT_DIRECTION, LIGHT_EDGE_U,
                           LIGHT_EDGE_V, LIGHT_F, LIGHT_I, LIGHT_INSTANCE, LIGHT_KIND, LIGHT_PMF, LIGHT_POSITION, LIGHT_POWER,
@@ -90,7 +90,11 @@ from .shapes import MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE
 from .shapes.dispatch import sample_surface, sampler_normal, surface, surface_records
 from .shapes.planar import PLANAR_CORNER, PLANAR_NORMAL, SMALL_RECTANGLE, rectangle_frame, rectangle_is_near, rectangular, sample_rectangle
 from .shapes.spheres import SPHERE_RADIUS, cone_from, cone_solid_angle, sample_cone, sphere_center
-from .trees import INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
+from .trees import INST_FIRST_KEY, INST_KEYS, INST_OBJECT_FROM_WORLD, INST_ROOT, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT, tree_prims
+from .motion import area_ratio_of, instance_maps, map_normal, map_point, moves, uniform_stretch
+
+# What a light placed by an instance that does not move reads in place of a moving one's maps.
+NO_MAPS = ((0.0,) * 12, (0.0,) * 12)
 
 # The least and most share of light samples the map gets when other lights are present too.
 MIN_CHOOSE = 0.1
@@ -257,6 +261,16 @@ def _area_lights(flat) -> tuple[dict[str, np.ndarray], float]:
     gram = np.einsum("kij,kil->kjl", lin, lin)
     scale2 = np.trace(gram, axis1=1, axis2=2) / 3.0
     similar = np.all(np.abs(gram - scale2[:, None, None] * np.eye(3)) <= 1e-9 * scale2[:, None, None], axis=(1, 2))
+    # On a moving instance a light keeps its cone or rectangle only if every map of its motion is
+    # a similarity, as the one at the shutter's opening (inst_f) is: every keyframe's stretch a
+    # uniform scale (then the stretches between them are too).
+    moving = np.flatnonzero(flat.inst_i[:, INST_KEYS] > 0)
+    if len(moving):
+        still_similar = np.ones(len(flat.inst_i), np.bool_)
+        for k in moving:
+            first = flat.inst_i[k, INST_FIRST_KEY]
+            still_similar[k] = uniform_stretch(flat.motion_f[first:first + flat.inst_i[k, INST_KEYS]])
+        similar &= still_similar[inst]
     area, u, v, corner = surface_records(kind, prim, flat)
     cone = ((kind == SPHERE) | (kind == MOVING_SPHERE)) & similar
     rectangle = (kind == QUAD) & rectangular(u, v) & similar
@@ -552,7 +566,14 @@ def sample_area_light(S, light, pmf, p, time, u1, u2):
     prim = S.light_i[light, LIGHT_PRIMITIVE]
     kind = S.prims_i[prim, PRIM_KIND]
     moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
-    p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+    # A moving instance places its light where it is at the path's time.
+    moving = MOTION and moves(S.inst_i, inst)
+    world, back = NO_MAPS
+    if moving:
+        world, back = instance_maps(S.inst_i, S.motion_f, inst, time)
+        p_tree = map_point(back, p)
+    else:
+        p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
     cone = False  # the density below is per solid angle already (a cone or a spherical rectangle)
     strategy = S.light_i[light, LIGHT_STRATEGY]
     if strategy == BY_CONE:
@@ -573,7 +594,10 @@ def sample_area_light(S, light, pmf, p, time, u1, u2):
         pdf = 1.0 / frame[8]
     else:
         x_tree, n_tree, pdf = sample_light_surface(S, light, kind, prim, time, u1, u2)
-    if moved:
+    if moving:
+        x = map_point(world, x_tree)
+        n = unit(map_normal(back, n_tree))
+    elif moved:
         x = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, x_tree)
         n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree))
     else:
@@ -594,7 +618,9 @@ def sample_area_light(S, light, pmf, p, time, u1, u2):
         cos_l = abs(dot(n, wi))
         if cos_l <= GRAZING:
             return False, x, wi, dist, 0.0, zero
-        if moved:
+        if moving:
+            pdf *= area_ratio_of(world, back, n)
+        elif moved:
             pdf *= area_ratio(S.inst_f, inst, n)
         pdf *= dist2_w / cos_l
     pdf *= pmf
@@ -612,10 +638,17 @@ def pdf_area_light(S, light, pmf, p, x, n, time):
     if not dist2 > 0.0:
         return 0.0
     moved = S.inst_i[inst, INST_UNTRANSFORMED] != 1
+    moving = MOTION and moves(S.inst_i, inst)
+    world, back = NO_MAPS
+    if moving:
+        world, back = instance_maps(S.inst_i, S.motion_f, inst, time)
     kind = S.prims_i[prim, PRIM_KIND]
     strategy = S.light_i[light, LIGHT_STRATEGY]
     if strategy == BY_RECTANGLE:
-        p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+        if moving:
+            p_tree = map_point(back, p)
+        else:
+            p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
         eu, ev = light_edges(S, light)
         q = planar_corner(S, prim)
         if rectangle_is_near(q, eu, ev, p_tree):
@@ -623,7 +656,10 @@ def pdf_area_light(S, light, pmf, p, x, n, time):
             if solid > SMALL_RECTANGLE:
                 return pmf / solid
     if strategy == BY_CONE:
-        p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
+        if moving:
+            p_tree = map_point(back, p)
+        else:
+            p_tree = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, p) if moved else p
         c = sphere_center(kind, S.prims_f, prim, time)
         r = S.prims_f[prim, SPHERE_RADIUS]
         d2, outside = cone_from(p_tree, c, r)
@@ -634,8 +670,13 @@ def pdf_area_light(S, light, pmf, p, x, n, time):
     own, n_tree = sampler_normal(kind, eu, ev)
     if own:
         # The sampler's normal, not the hit's (a smooth mesh's hit has a blended one).
-        n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree)) if moved else n_tree
-    if moved:
+        if moving:
+            n = unit(map_normal(back, n_tree))
+        else:
+            n = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, n_tree)) if moved else n_tree
+    if moving:
+        per_area *= area_ratio_of(world, back, n)
+    elif moved:
         per_area *= area_ratio(S.inst_f, inst, n)
     cos_l = abs(dot(n, to)) / math.sqrt(dist2)
     if cos_l <= GRAZING:

@@ -1,11 +1,14 @@
-"""Constant-density media: their rows, their flattening, and free-flight sampling in the kernels.
+"""Media: their rows, their flattening, and free-flight sampling in the kernels.
 
 A medium is a primitive of kind MEDIUM in the tree of the shape that bounds it, so a ray
 meets it like a surface: its hit distance is drawn from the free-flight distribution, with a
 random number keyed by (bounce, instance, medium) so the answer does not depend on the order
 the tree is visited in. The boundary's rows (planar or spherical, as the shape's surface
 would be) sit in a table of their own, `bnd_i` and `bnd_f`, outside every tree. The medium
-scatters with an isotropic phase function, a material row (materials.phase_function).
+scatters with its phase function, a material row (materials.phase_function: isotropic, or
+Henyey-Greenstein's). A constant medium's free flight is drawn here in closed form; a medium
+whose density varies (a grid, noise: its row's `field` column) is tracked through its field by
+grid_media.py, behind the `varying_media` flag.
 """
 
 import math
@@ -13,6 +16,8 @@ import math
 
 from . import target
 from .columns import Column, Layout
+from .grid_media import track
+from .kernel_flags import VARYING_MEDIA
 from .numerics.rng import DIM_MEDIUM, mix64, uniform
 from .numerics.vec import dot, length, sub
 from .shapes import INF, MEDIUM, MOVING_SPHERE, PRIM_WIDTH, SPHERE
@@ -25,15 +30,22 @@ MEDIUM_F = Layout("prims_f medium", "float64", [
     Column("first_boundary", 1, "first row of its boundary in bnd_i and bnd_f"),
     Column("boundaries", 1, "how many boundary rows"),
     Column("serial", 1, "the medium's number, independent of row order: keys its random numbers"),
+    Column("field", 1, "0 for a constant density; else 1 + the bnd_f row of its density field's header "
+                       "(grid_media.FIELD_F)"),
 ], PRIM_WIDTH)
-MEDIUM_NEG_INV_DENSITY, MEDIUM_FIRST_BOUNDARY, MEDIUM_BOUNDARIES, MEDIUM_SERIAL = MEDIUM_F.offsets(
-    "neg_inv_density", "first_boundary", "boundaries", "serial")
+MEDIUM_NEG_INV_DENSITY, MEDIUM_FIRST_BOUNDARY, MEDIUM_BOUNDARIES, MEDIUM_SERIAL, MEDIUM_FIELD = MEDIUM_F.offsets(
+    "neg_inv_density", "first_boundary", "boundaries", "serial", "field")
+# Mixed into a shadow ray's random numbers in a varying medium, so they differ from the free
+# flight's of the same (bounce, instance, medium).
+SHADOW_SALT = 0x9E3779B97F4A7C15
 
 
-def medium_row(density: float, first_boundary: int, boundaries: int, serial: int) -> tuple[int, list]:
-    """(MEDIUM, row) of a medium of `density` bounded by boundary rows first_boundary onwards."""
-    return MEDIUM, MEDIUM_F.row(neg_inv_density=-1.0 / density, first_boundary=first_boundary,
-                                boundaries=boundaries, serial=serial)
+def medium_row(density: float, first_boundary: int, boundaries: int, serial: int, field: int = -1) -> tuple[int, list]:
+    """(MEDIUM, row) of a medium bounded by boundary rows first_boundary onwards: of constant
+    `density`, or (field >= 0) of the density field whose header is bnd_f row `field`, whose
+    largest density `density` then is."""
+    return MEDIUM, MEDIUM_F.row(neg_inv_density=-1.0 / density if density > 0.0 else 0.0,
+                                first_boundary=first_boundary, boundaries=boundaries, serial=serial, field=field + 1)
 
 
 # --- the kernels ------------------------------------------------------------------------------
@@ -76,6 +88,8 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
     # Keyed by serial numbers, not table rows: the BVH reorders rows, and must not change the image.
     medium = uint64(prims_f[prim, MEDIUM_SERIAL])
     dim = DIM_MEDIUM + mix64(uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
+    if VARYING_MEDIA and prims_f[prim, MEDIUM_FIELD] > 0.0:
+        return varying_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, dim)
     u = uniform(key, dim)
     speed = length(d)
     # The free-flight distance -ln(1 - u) / density is at least u / density. When that already
@@ -100,3 +114,32 @@ def medium_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, bounce,
     if distance > inside:
         return INF
     return t0 + distance / speed
+
+
+@target.device
+def varying_hit(prims_f, bnd_i, bnd_f, prim, o, d, tmin, tmax, time, key, dim):
+    """medium_hit for a medium whose density varies: delta tracking through its field over the
+    part of (tmin, tmax) inside its boundary, with random numbers from dimension `dim` on."""
+    start, count = int(prims_f[prim, MEDIUM_FIRST_BOUNDARY]), int(prims_f[prim, MEDIUM_BOUNDARIES])
+    enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
+    t0, t1 = max(enter, tmin, 0.0), min(leave, tmax)
+    if not t0 < t1:
+        return INF
+    t, _ = track(bnd_f, int(prims_f[prim, MEDIUM_FIELD]) - 1, o, d, t0, t1, length(d), key, dim, False)
+    return t
+
+
+@target.device
+def varying_transmittance(prims_f, bnd_i, bnd_f, prim, o, d, tmax, time, key, bounce, inst):
+    """An unbiased estimate of the transmittance of a medium whose density varies along o + t d
+    for t in (0, tmax), by ratio tracking through its field; `inst` the instance's serial."""
+    start, count = int(prims_f[prim, MEDIUM_FIRST_BOUNDARY]), int(prims_f[prim, MEDIUM_BOUNDARIES])
+    enter, leave = medium_span(bnd_i, bnd_f, start, count, o, d, time)
+    t0, t1 = max(enter, 0.0), min(leave, tmax)
+    if not t0 < t1:
+        return 1.0
+    medium = uint64(prims_f[prim, MEDIUM_SERIAL])
+    dim = DIM_MEDIUM + mix64((uint64(bounce) * uint64(0x100000001B3) + uint64(inst) * uint64(0x2545F4914F6CDD1D) + medium)
+                             ^ uint64(SHADOW_SALT))
+    _, tr = track(bnd_f, int(prims_f[prim, MEDIUM_FIELD]) - 1, o, d, t0, t1, length(d), key, dim, True)
+    return tr

@@ -18,9 +18,11 @@ INSTANCE_I = Layout("inst_i", "int32", [
     Column("root", 1, "root node of the instance's bottom-level tree in nodes_f and nodes_i"),
     Column("untransformed", 1, "1 if the instance's transform is the identity (rays need no transforming)"),
     Column("serial", 1, "the instance's number, independent of row order: keys the random numbers of its media"),
+    Column("first_key", 1, "a moving instance: row of its first keyframe in motion_f (motion.py); -1 for one that stands still"),
+    Column("keys", 1, "a moving instance: how many keyframes (at least 2); 0 for one that stands still (inst_f's maps then hold)"),
 ])
 INSTANCE_F = Layout("inst_f", "float64", [
-    Column("world_from_object", 12, "3x4 row-major affine map"),
+    Column("world_from_object", 12, "3x4 row-major affine map (a moving instance's: where it is when the shutter opens)"),
     Column("object_from_world", 12, "its inverse"),
 ])
 TLAS_F = Layout("tlas_f", "float64", [Column("lo", 3, "box corner"), Column("hi", 3, "box corner")])
@@ -37,6 +39,7 @@ NODE_I = Layout("nodes_i", "int64", [
 ])
 NODE_CHILD, NODE_COUNT = NODE_I.offsets("child", "count")
 INST_ROOT, INST_UNTRANSFORMED, INST_SERIAL = INSTANCE_I.offsets("root", "untransformed", "serial")
+INST_FIRST_KEY, INST_KEYS = INSTANCE_I.offsets("first_key", "keys")
 INST_WORLD_FROM_OBJECT, INST_OBJECT_FROM_WORLD = INSTANCE_F.offsets("world_from_object", "object_from_world")
 TLAS_LO, TLAS_HI = TLAS_F.offsets("lo", "hi")
 TLAS_NEXT, TLAS_COUNT, TLAS_AXIS = TLAS_I.offsets("next", "count", "axis")

@@ -57,6 +57,9 @@ TEXTURE_BYTES_PER_PIXEL = 8 + 3 + 12 + 12
 # A float image (.exr, .pfm): the file's bytes (at most 12 a pixel uncompressed), the decoded
 # float32 pixels, a contiguous copy, and the joined texels.
 HDR_TEXTURE_BYTES_PER_PIXEL = 12 + 12 + 12 + 12
+# A grid medium's cell, per shape holding it: its value in the kernels' table, and the table's
+# assembly (a copy at most); the array as read, 8 bytes, counts once per medium.
+GRID_BYTES_PER_CELL = 8 + 8
 # An environment map: read as a texture is (8-bit or float), its float32 radiance, and the
 # sampling tables renderer/environment.py builds in float64: the luminance times sin(theta), each
 # texel's density and its row's cumulative sum, with one temporary of each.
@@ -309,17 +312,18 @@ class MemoryEstimate:
     primitives: int = 0
     lights: int = 0
     guide: int = 0  # a guided render's training and guide
+    media: int = 0  # the density grids of grid media, as read and as the kernels hold them
     placements: int = 0
     expanded_shapes: int = 0
     parts: dict = field(default_factory=dict)  # part -> key path of its biggest cause
 
     @property
     def total(self) -> int:
-        return self.film + self.textures + self.instances + self.primitives + self.lights + self.guide
+        return self.film + self.textures + self.instances + self.primitives + self.lights + self.guide + self.media
 
     def describe(self) -> str:
         shown = [(self.film, "film"), (self.textures, "textures"), (self.instances, "instances"), (self.primitives, "shapes and trees"),
-                 (self.lights, "lights"), (self.guide, "guide or photons")]
+                 (self.lights, "lights"), (self.guide, "guide or photons"), (self.media, "media")]
         return ", ".join(f"{name} {gib(n)}" for n, name in shown if n >= 1 << 20) or "under 1 MiB"
 
 
@@ -430,6 +434,25 @@ def _image_pixels(node) -> int:
     return 0
 
 
+def _estimate_media(est: MemoryEstimate, walk: SceneBounds) -> None:
+    """Grid media: each grid as read (once per medium) and each shape's copy in the kernels' table."""
+    biggest = (0, ())
+    read: set = set()
+    for group in walk.groups_seen.values():
+        for m in group.members:
+            medium = getattr(m, "interior", None)
+            if medium is None or medium.grid is None:
+                continue
+            n = medium.grid.size * GRID_BYTES_PER_CELL
+            if id(medium) not in read:
+                read.add(id(medium))
+                n += medium.grid.size * 8
+            est.media += n
+            if n > biggest[0]:
+                biggest = (n, medium.path + ("file",))
+    est.parts["media"] = biggest[1]
+
+
 def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate:
     """The memory a render of `graph` will need, by part (see the constants above)."""
     if walk is None:
@@ -471,6 +494,7 @@ def estimate_memory(graph, walk: Optional[SceneBounds] = None) -> MemoryEstimate
     # A row per emitting primitive placed, and one per light under `lights:`.
     est.lights = (root.lights + len(graph.lights)) * LIGHT_BYTES
     est.parts["lights"] = ("lights",) if len(graph.lights) > root.lights else ("shapes",)
+    _estimate_media(est, walk)
     if image.integrator == "guided":
         est.guide = GUIDE_TRAINING_BYTES + est.film
         est.parts["guide"] = ("image", "integrator")
@@ -502,7 +526,7 @@ def memory_problems(estimate: MemoryEstimate, diagnostic: Callable[[tuple, str],
     if estimate.total <= limit:
         return []
     parts = {"film": estimate.film, "textures": estimate.textures, "instances": estimate.instances, "shapes and trees": estimate.primitives,
-             "lights": estimate.lights, "guide": estimate.guide}
+             "lights": estimate.lights, "guide": estimate.guide, "media": estimate.media}
     worst = max(parts, key=parts.get)
     return [
         diagnostic(

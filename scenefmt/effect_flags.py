@@ -31,9 +31,9 @@ class EffectFlag:
 
 
 EFFECT_FLAGS = (
-    EffectFlag("motion", "motion blur", "time sampling and moving sphere centres"),
+    EffectFlag("motion", "motion blur", "time sampling, moving sphere centres, and transforms and a camera interpolated at each ray's time"),
     EffectFlag("defocus", "defocus", "sampling the lens disk"),
-    EffectFlag("media", "media", "constant-density media in the trees and scattering inside them"),
+    EffectFlag("media", "media", "media in the trees (their boundaries, constant densities) and scattering inside them"),
     EffectFlag("instances", "instances", "the top-level tree and per-instance transforms"),
     EffectFlag("checker", "checker textures", "checker textures"),
     EffectFlag("image", "image textures", "image textures"),
@@ -59,6 +59,10 @@ EFFECT_FLAGS = (
                "a learned distribution of where light arrives from, mixed with the BSDF at every diffuse bounce", 2),
     EffectFlag("caustics", "light-traced caustics",
                "photons from the lights through specular spheres onto matte surfaces, joined to the camera", 2),
+    EffectFlag("varying_media", "media of varying density",
+               "grid and noise densities: delta tracking through a majorant grid, ratio tracking for shadow rays", 2),
+    EffectFlag("phase_hg", "Henyey-Greenstein phase",
+               "sampling and evaluating an anisotropic (Henyey-Greenstein) phase function in media", 2),
 )
 EFFECT_KEYS = tuple(flag.key for flag in EFFECT_FLAGS)
 CORE_KEYS = tuple(flag.key for flag in EFFECT_FLAGS if flag.tier == 0)

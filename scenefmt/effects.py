@@ -129,6 +129,13 @@ class _RunPart:
     count: int
 
 
+@dataclass(frozen=True)
+class _Camera:
+    """The camera, where effects name what moves."""
+
+    path: tuple = ("camera",)
+
+
 def _first(items, text) -> str:
     more = sum(item.count if isinstance(item, _RunPart) else 1 for item in items) - 1
     return text(items[0]) + (f" and {more} more" if more > 0 else "")
@@ -137,6 +144,8 @@ def _first(items, text) -> str:
 def _needs_instance(member: Union[ShapeNode, InstanceNode], similar: dict) -> Union[str, None]:
     """Why a member keeps a transform of its own in the kernels (None if it is baked in).
     `similar` remembers which transforms are similarities: a scene's many shapes share a few."""
+    if member.motion is not None:
+        return "moves: its keyframes place it at each ray's time"
     if isinstance(member, InstanceNode):
         return "is an instance"
     if member.kind in ("sphere", "moving_sphere"):
@@ -205,6 +214,22 @@ def light_kinds(graph: SceneGraph, emitters: list) -> list[LightKind]:
     return found
 
 
+def medium_effects(with_media: list) -> dict:
+    """The effects of the media the shapes `with_media` hold, beyond the constant medium: a density
+    that varies (a grid or noise medium) and an anisotropic phase function."""
+    found = {}
+    varying = [m for m in with_media if m.interior.kind != "constant"]
+    if varying:
+        found["varying_media"] = Effect("", True, _first(varying, lambda m: (
+            f"{format_path(m.path)} holds {m.interior.name or 'a medium'}, a {m.interior.kind} medium")))
+    forward = [m for m in with_media if m.interior.model.phase_g != 0.0]
+    if forward:
+        found["phase_hg"] = Effect("", True, _first(forward, lambda m: (
+            f"{format_path(m.path)} holds {m.interior.name or 'a medium'}, whose phase is henyey_greenstein "
+            f"(g {m.interior.model.phase_g:g})")))
+    return found
+
+
 def summarize(graph: SceneGraph) -> SceneSummary:
     summary = SceneSummary()
     moving: list[ShapeNode] = []
@@ -250,6 +275,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         why = _needs_instance(member, similar)
         if why is not None:
             placed.append((member, why))
+        if member.motion is not None:
+            moving.append(member)
         if isinstance(member, ShapeNode):
             if member.kind == "moving_sphere" and member.model.center0 != member.model.center1:
                 moving.append(member)
@@ -270,6 +297,8 @@ def summarize(graph: SceneGraph) -> SceneSummary:
                 textures_by_kind.setdefault(kind, []).append(member)
     shutter = graph.shutter
     cam = graph.camera
+    if cam.moves:
+        moving.insert(0, _Camera())
     found: dict[str, Effect] = {}
     if moving and shutter.close > shutter.open:
         found["motion"] = Effect("", True, _first(moving, lambda m: f"{format_path(m.path)} moves, shutter {shutter.open:g}..{shutter.close:g}"))
@@ -280,6 +309,7 @@ def summarize(graph: SceneGraph) -> SceneSummary:
         found["defocus"] = Effect("", True, f"camera {how}, focus distance {cam.focus:g}")
     if with_media:
         found["media"] = Effect("", True, _first(with_media, lambda m: f"{format_path(m.path)} holds {m.interior.name or 'a medium'}"))
+        found.update(medium_effects(with_media))
     if placed:
         found["instances"] = Effect("", True, _first(placed, lambda mw: f"{format_path(mw[0].path)} {mw[1]}"))
     for kind, members in textures_by_kind.items():

@@ -22,7 +22,7 @@ from .hdr_files import HdrProblem, hdr_header, hdr_peak, is_hdr
 from .loading import SourceDocument
 from .named_files import NamedFileProblem, locate_named_file
 from .materials import Material, texture_fields
-from .media import ConstantMedium
+from .media import GridMedium, Medium
 from .scene import Camera, Image, ImageBackground, Scene, Shutter, SkyBackground, SolidBackground
 from .sky import SunSkyBackground
 from .shapes import Box, ClosedShapeBase, Disk, Group, Instance, Mesh, MovingSphere, Quad, Sphere, SphereColumns, Triangle
@@ -66,12 +66,18 @@ class MaterialNode:
 
 @dataclass(eq=False)
 class MediumNode:
-    """A participating medium; `albedo` is its phase function's texture."""
+    """A participating medium; `albedo` is its phase function's texture, `grid` a grid medium's
+    checked density array (scenefmt.gridfile: read once, here)."""
 
-    model: ConstantMedium
+    model: Medium
     name: Optional[str]
     path: tuple
     albedo: TextureNode
+    grid: Optional[object] = None
+
+    @property
+    def kind(self) -> str:
+        return self.model.type
 
 
 @dataclass(eq=False)
@@ -85,6 +91,9 @@ class ShapeNode:
     interior: Optional[MediumNode]
     transform: Affine
     mesh: Optional[object] = None  # a mesh's checked scenefmt.meshfile.MeshData (read once, here)
+    # A shape that moves: (times, maps), each map the keyframe's, which follows `transform`;
+    # None for one that stands still (keyframes all alike are folded into `transform`).
+    motion: Optional[tuple] = None
 
     @property
     def kind(self) -> str:
@@ -122,6 +131,10 @@ class SphereRunNode:
         return self.list_path + (self.first + k,)
 
 
+# Light-traced caustics join each photon to the camera and aim it at spheres where they stand.
+CAUSTICS_STAND_STILL = ("image.integrator caustics needs shapes and a camera that stand still (their photons are aimed "
+                        "where things are at the shutter's opening); use mis, the default, with motion")
+
 # A run of fewer plain spheres is made of one ShapeNode each: few nodes cost little, and a scene
 # written by hand keeps a node per shape.
 SPHERE_RUN_MIN = 256
@@ -134,6 +147,8 @@ class InstanceNode:
     group: "GroupNode"
     path: tuple
     transform: Affine
+    # An instance that moves: (times, maps), each map the keyframe's, which follows `transform`.
+    motion: Optional[tuple] = None
 
     kind = "instance"
 
@@ -412,14 +427,34 @@ class _Resolver:
             return node
         return self.medium(value, None, path)
 
-    def medium(self, model: ConstantMedium, name: Optional[str], path: tuple) -> Optional[MediumNode]:
+    def medium(self, model: Medium, name: Optional[str], path: tuple) -> Optional[MediumNode]:
         albedo = self.texture_slot(model.albedo, path + ("albedo",))
         if albedo is None:
             return None
         self.check_colour(albedo, path + ("albedo",), bounds.MAX_REFLECTANCE, "a reflectance (albedo)")
         node = MediumNode(model, name, path, albedo)
+        if isinstance(model, GridMedium):
+            node.grid = self.grid_data(model, path)
+            if node.grid is None:
+                return None
         self.all_media.append(node)
         return node
+
+    def grid_data(self, model: GridMedium, path: tuple):
+        """A grid medium's checked density array, or None after reporting why."""
+        from .gridfile import FileProblem, GridProblem, read_grid
+
+        where, name = path + ("file",), f"grid file '{model.file}'"
+        resolved = self.named_file("grid file", model.file, where)
+        if resolved is None:
+            return None
+        try:
+            return self.assets.get(f"grid {model.key}", resolved, lambda: read_grid(resolved, model.key))
+        except (GridProblem, FileProblem) as exc:
+            self.error(where, f"{name}: {exc}")
+        except MemoryError as exc:
+            self.error(where, f"{name}: " + memory_message(exc, "read it"))
+        return None
 
     # --- shapes and groups ---------------------------------------------------------------------
 
@@ -497,6 +532,22 @@ class _Resolver:
         return SphereRunNode(list_path, start, materials, slot[code], at[order].astype(np.int64),
                              count[order].astype(np.int64), centers, radii)
 
+    def motion(self, model, path: tuple, transform: Affine) -> tuple[Affine, Optional[tuple]]:
+        """The still transform and the motion (times, keyframe maps) of a shape or instance: keyframes
+        that all place it alike fold into the transform, and it stands still."""
+        if not model.motion:
+            return transform, None
+        maps = []
+        for k, key in enumerate(model.motion):
+            if key.transform:
+                bounds.check_transform(key.transform, path + ("motion", k), self.error)
+            maps.append(affine.from_steps(key.transform))
+        if all(m == maps[0] for m in maps):
+            return affine.compose(maps[0], transform), None
+        if self.scene.image.integrator == "caustics":
+            self.error(path + ("motion",), CAUSTICS_STAND_STILL)
+        return transform, (tuple(float(key.time) for key in model.motion), tuple(maps))
+
     def shape(self, model, path: tuple) -> Union[ShapeNode, InstanceNode, list, None]:
         """The node of one shape; for an OBJ mesh without a material, a list: one node per material
         of its library (mesh_materials.py)."""
@@ -504,14 +555,15 @@ class _Resolver:
         if model.transform:
             bounds.check_transform(model.transform, path, self.error)
             transform = affine.from_steps(model.transform)
+        transform, motion = self.motion(model, path, transform)
         if isinstance(model, Instance):
             group = self.group_slot(model.group, path + ("group",))
-            return InstanceNode(group, path, transform) if group is not None else None
+            return InstanceNode(group, path, transform, motion) if group is not None else None
         material = self.material_slot(model.material, path + ("material",)) if model.material is not None else None
         interior = None
         if isinstance(model, ClosedShapeBase) and model.interior is not None:
             interior = self.medium_slot(model.interior, path + ("interior",))
-        node = ShapeNode(model, path, material, interior, transform)
+        node = ShapeNode(model, path, material, interior, transform, motion=motion)
         if isinstance(model, Mesh):
             node.mesh = self.mesh_data(model, path)
             if node.mesh is None:
@@ -590,6 +642,8 @@ class _Resolver:
                 warnings.append(self.warn((), f"the scene is empty: {NO_SHAPES}"))
             else:
                 warnings.append(self.warn((), f"the scene has no shapes key: {NO_SHAPES}"))
+        if scene.camera.moves and scene.image.integrator == "caustics":
+            self.error(("camera", "motion"), CAUSTICS_STAND_STILL)
         if scene.lights and scene.image.integrator == "path":
             # Valid, but they would light nothing: a path meets no point and no direction by chance.
             warnings.append(self.warn(("lights",), "point, spot and directional lights light nothing with image.integrator "

@@ -31,6 +31,7 @@ from .media import Medium
 from .shapes import Group, Shape
 from .sky import SunSkyBackground
 from .textures import Texture
+from .transforms import MAX_KEYFRAMES
 
 FORMAT_VERSION = 1
 MAX_SHAPES = 5_000_000
@@ -58,6 +59,21 @@ def _one_or_more_files(value: Any) -> Any:
     kind = {True: "true", False: "false", None: "null"}.get(value) if value is None or isinstance(value, bool) else (
         "a number" if isinstance(value, (int, float)) else "a mapping" if isinstance(value, dict) else type(value).__name__)
     raise ValueError(f"expected a file name or a list of file names, found {kind}")
+
+
+class CameraKeyframe(StrictModel):
+    """Where the camera is and looks at one time; what a keyframe leaves out is the camera's own.
+
+    ```yaml
+    time: 1
+    look_at: [1, 0, 0]
+    ```
+    """
+
+    time: Number = Field(..., description="The time of this keyframe, on the shutter's clock.")
+    look_from: Optional[Vec3] = Field(None, description="Position of the camera at this time; by default the camera's `look_from`.")
+    look_at: Optional[Vec3] = Field(None, description="Point it looks at at this time; by default the camera's `look_at`.")
+    up: Optional[Vec3] = Field(None, description="Which way is up at this time; by default the camera's `up`.")
 
 
 class Camera(StrictModel):
@@ -105,6 +121,14 @@ class Camera(StrictModel):
         description="Distance from `look_from` to the plane in perfect focus; by default the distance to `look_at`.",
     )
 
+    motion: Optional[Annotated[list[CameraKeyframe], Field(min_length=2, max_length=MAX_KEYFRAMES)]] = Field(
+        None,
+        description="Keyframes `{time, look_from, look_at, up}` (at least 2, times increasing; a field left out is the "
+        "camera's own) that move the camera over the shutter: its position is interpolated linearly and its "
+        "orientation by quaternion slerp between them, held before the first and after the last. The field of view "
+        "and the lens stay as they are.",
+    )
+
     @model_validator(mode="after")
     def _well_posed(self) -> "Camera":
         view = vec_sub(self.look_at, self.look_from)
@@ -114,9 +138,30 @@ class Camera(StrictModel):
             raise field_error("up", "up must not be the zero vector")
         if vec_length(vec_cross(view, self.up)) <= 1e-12 * vec_length(view) * vec_length(self.up):
             raise field_error("up", "up is parallel to the view direction (look_at - look_from); choose another up")
+        for k, key in enumerate(self.motion or ()):
+            if k and not key.time > self.motion[k - 1].time:
+                raise field_error("motion", f"keyframe times must increase: keyframe {k} is at {key.time:g}, "
+                                  f"keyframe {k - 1} at {self.motion[k - 1].time:g}")
+            look_from, look_at, up = self.frame_at_key(key)
+            view = vec_sub(look_at, look_from)
+            if vec_length(view) == 0.0:
+                raise field_error("motion", f"keyframe {k}: look_from and look_at are the same point")
+            if vec_length(up) == 0.0 or vec_length(vec_cross(view, up)) <= 1e-12 * vec_length(view) * vec_length(up):
+                raise field_error("motion", f"keyframe {k}: up is zero or parallel to the view direction")
         if self.aperture is not None and self.aperture > 0 and self.defocus_angle > 0:
             raise field_error("aperture", "give either defocus_angle or aperture, not both")
         return self
+
+    def frame_at_key(self, key: "CameraKeyframe") -> tuple:
+        """(look_from, look_at, up) of a keyframe, the camera's own where it gives none."""
+        return (self.look_from if key.look_from is None else key.look_from,
+                self.look_at if key.look_at is None else key.look_at,
+                self.up if key.up is None else key.up)
+
+    @property
+    def moves(self) -> bool:
+        """Whether its keyframes place it in more than one way (keyframes all alike stand still)."""
+        return bool(self.motion) and len({self.frame_at_key(key) for key in self.motion}) > 1
 
     @property
     def focus(self) -> float:

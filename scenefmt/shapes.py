@@ -15,7 +15,7 @@ from pydantic import BeforeValidator, ConfigDict, Discriminator, Field, Tag, Wit
 from .base import MAX_MAGNITUDE, MIN_MAGNITUDE, Name, Number, StrictModel, Vec3, field_error, slot_kind, vec_cross, vec_length, vec_sub
 from .materials import MaterialSlot
 from .media import MediumSlot
-from .transforms import Transform
+from .transforms import Motion, Transform
 
 # Relative threshold below which two edge vectors count as parallel (a zero-area face).
 _DEGENERATE = 1e-12
@@ -37,6 +37,13 @@ class ShapeBase(StrictModel):
 
     transform: Transform = Field(
         default_factory=list, description="Transform steps applied to the shape, first to last."
+    )
+    motion: Optional[Motion] = Field(
+        None,
+        description="Keyframes `{time, transform}` (at least 2, times increasing) that move the shape over the "
+        "shutter: at each time its `transform` is followed by the keyframe's; in between, translation and scale "
+        "are interpolated linearly and rotation by quaternion slerp (pbrt-v4's rule), held before the first and "
+        "after the last. Keyframes that all place it alike are a still transform.",
     )
 
 
@@ -121,7 +128,8 @@ def is_plain_sphere(model) -> bool:
     """Whether a validated shape is a plain sphere: a `sphere` with a named material and no
     transform (none, or an empty list) or interior of its own. The one rule: the graph joins runs
     of these (SphereColumns.of_models), and every sphere `plain_spheres` builds in bulk is one."""
-    return type(model) is Sphere and not model.transform and model.interior is None and type(model.material) is str
+    return (type(model) is Sphere and not model.transform and model.interior is None and type(model.material) is str
+            and model.motion is None)
 
 
 def sphere_values(models) -> "np.ndarray":
@@ -212,7 +220,7 @@ def plain_spheres(items: Any) -> tuple[Any, Optional[SphereColumns]]:
     good &= code >= 0
     out = list(items)
     fields = tuple(Sphere.model_fields)
-    assert fields == ("transform", "material", "interior", "type", "center", "radius"), fields
+    assert fields == ("transform", "motion", "material", "interior", "type", "center", "radius"), fields
     new, setattr_ = Sphere.__new__, object.__setattr__
     kept = np.flatnonzero(good)
     index = np.asarray(at, np.int64)[kept]
@@ -222,7 +230,7 @@ def plain_spheres(items: Any) -> tuple[Any, Optional[SphereColumns]]:
     for i, (x, y, z, r) in zip(index.tolist(), values[kept].tolist()):
         # What model_validate makes of it (pydantic's own model_construct, at 1/150 of its cost).
         model = new(Sphere)
-        setattr_(model, "__dict__", {"transform": [], "material": items[i]["material"], "interior": None, "type": "sphere",
+        setattr_(model, "__dict__", {"transform": [], "motion": None, "material": items[i]["material"], "interior": None, "type": "sphere",
                                      "center": (x, y, z), "radius": r})
         setattr_(model, "__pydantic_fields_set__", given)
         setattr_(model, "__pydantic_extra__", None)
@@ -523,6 +531,13 @@ class Instance(StrictModel):
     type: Literal["instance"] = Field("instance", description="Selects an instance of a group.")
     group: GroupSlot = Field(..., description="A name from `groups:`, or an inline group.")
     transform: Transform = Field(default_factory=list, description="Transform steps that place the group, first to last.")
+    motion: Optional[Motion] = Field(
+        None,
+        description="Keyframes `{time, transform}` (at least 2, times increasing) that move the group over the "
+        "shutter: at each time the instance's `transform` is followed by the keyframe's; in between, translation and scale "
+        "are interpolated linearly and rotation by quaternion slerp (pbrt-v4's rule), held before the first and "
+        "after the last. Keyframes that all place it alike are a still transform.",
+    )
 
 
 Shape = Annotated[

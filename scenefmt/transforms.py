@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, Discriminator, Field, Tag, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, BeforeValidator, Discriminator, Field, Tag, field_validator, model_validator
 
 from .base import Number, StrictModel, Vec3, vec_length
 
@@ -169,3 +169,37 @@ TransformStep = Annotated[
 
 Transform = Annotated[list[TransformStep], Field(max_length=256)]
 """An ordered list of transform steps, applied first to last."""
+
+
+MAX_KEYFRAMES = 64
+
+
+class Keyframe(StrictModel):
+    """Where a moving shape or instance is at one time: its `transform` then, applied after the
+    shape's own `transform` (which stays fixed).
+
+    ```yaml
+    time: 1
+    transform: [{rotate: {axis: y, degrees: 90}}, {translate: [2, 0, 0]}]
+    ```
+    """
+
+    time: Number = Field(..., description="The time of this keyframe, on the shutter's clock (`shutter.open` .. `shutter.close`).")
+    transform: Transform = Field(
+        default_factory=list, description="Transform steps, first to last, that place the shape at this time (none: where it stands)."
+    )
+
+
+def _increasing_times(keys: list) -> list:
+    for k in range(1, len(keys)):
+        if not keys[k].time > keys[k - 1].time:
+            raise ValueError(
+                f"keyframe times must increase: keyframe {k} is at {keys[k].time:g}, keyframe {k - 1} at {keys[k - 1].time:g}"
+            )
+    return keys
+
+
+Motion = Annotated[list[Keyframe], Field(min_length=2, max_length=MAX_KEYFRAMES), AfterValidator(_increasing_times)]
+"""Keyframes over the shutter, in increasing time: the placement is interpolated between them
+(translation and scale linearly, rotation by quaternion slerp, as pbrt-v4 does) and held before
+the first and after the last."""

@@ -3,7 +3,7 @@ material's own functions (see the package's docstring for the contract)."""
 
 from .. import target
 
-from ..kernel_flags import CONDUCTORS, DIELECTRICS, EMITTERS, IMAGE, PARAMETER_TEXTURES, PLASTICS, PRINCIPLED, ROUGH_DIELECTRICS
+from ..kernel_flags import CONDUCTORS, DIELECTRICS, EMITTERS, IMAGE, PARAMETER_TEXTURES, PHASE_HG, PLASTICS, PRINCIPLED, ROUGH_DIELECTRICS
 from ..numerics.frame import frame_of, to_local, to_world
 from ..numerics.rng import uniform
 from ..numerics.vec import neg, unit
@@ -11,8 +11,9 @@ from ..textures import texture_value
 from .books import (ISOTROPIC_DENSITY, dielectric_direction, lambertian_direction, lambertian_value, metal_direction,
                     random_unit_vector)
 from .families import family_eval, family_has_density, family_pdf, family_sample
+from .phase import hg_pdf, hg_sample
 from .table import (CONDUCTOR, DIELECTRIC, DIFFUSE_LIGHT, ISOTROPIC, LAMBERTIAN, MAT_EMISSION, MAT_EMISSION_STRENGTH,
-                    MAT_FUZZ, MAT_IOR, MAT_KIND, MAT_PARAM, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE,
+                    MAT_FUZZ, MAT_G, MAT_IOR, MAT_KIND, MAT_PARAM, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED, MAT_PARAM_TEXTURE,
                     MAT_ONE_SIDED, MAT_READS_UV, MAT_TEXTURE, METAL, SLOT_ALPHA_U, SLOT_ALPHA_V)
 from .table import PRINCIPLED as PRINCIPLED_KIND  # (PRINCIPLED is the kernel flag here)
 
@@ -192,6 +193,10 @@ def sample_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_fac
     if DIELECTRICS and kind == DIELECTRIC:
         return dielectric_direction(d, n_front, front_face, mat_f[mat, MAT_IOR], uniform(key, dim + 8)), color, 0.0, True
     if kind == ISOTROPIC:
+        if PHASE_HG and mat_f[mat, MAT_G] != 0.0:
+            # The sample's value over its density is exactly 1: the albedo is the whole weight.
+            wi, pdf = hg_sample(mat_f[mat, MAT_G], unit(d), uniform(key, dim), uniform(key, dim + 1))
+            return wi, color, pdf, False
         return random_unit_vector(key, dim), color, ISOTROPIC_DENSITY, False
     if MICROFACETS and kind >= CONDUCTOR:
         s, t = frame_of(n_front, tangent)
@@ -237,6 +242,8 @@ def eval_bsdf(mat_i, mat_f, mat, color, params, d, n_front, tangent, front_face,
     if kind == LAMBERTIAN:
         return color, lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
+        if PHASE_HG and mat_f[mat, MAT_G] != 0.0:
+            return color, hg_pdf(mat_f[mat, MAT_G], unit(d), wi)
         return color, ISOTROPIC_DENSITY
     if MICROFACETS and kind >= CONDUCTOR:
         # The whole of f . cos as the tint, and 1 (or 0 where it is black, which spares the
@@ -256,6 +263,8 @@ def pdf_bsdf(mat_i, mat_f, mat, params, d, n_front, tangent, front_face, wi):
     if kind == LAMBERTIAN:
         return lambertian_value(n_front, wi)
     if kind == ISOTROPIC:
+        if PHASE_HG and mat_f[mat, MAT_G] != 0.0:
+            return hg_pdf(mat_f[mat, MAT_G], unit(d), wi)
         return ISOTROPIC_DENSITY
     if MICROFACETS and kind >= CONDUCTOR:
         s, t = frame_of(n_front, tangent)

@@ -60,6 +60,7 @@ MATERIAL_F = Layout("mat_f", "float64", [
     Column("normal_scale", 1, "scale of a normal map's x and y"),
     Column("bump_height", 1, "world units of height per unit of a bump map"),
     Column("emission_strength", 1, "principled: factor of the emitted colour"),
+    Column("g", 1, "isotropic (a medium's phase function): Henyey-Greenstein's asymmetry, 0 for the isotropic phase"),
 ])
 MAT_KIND, MAT_TEXTURE, MAT_READS_UV = MATERIAL_I.offsets("kind", "texture", "reads_uv")
 MAT_PARAM_TEXTURE, MAT_PARAM_CHANNEL, MAT_PARAM_SQUARED = MATERIAL_I.offsets("param_texture", "param_channel", "param_squared")
@@ -69,6 +70,7 @@ MAT_ONE_SIDED = MATERIAL_I.offset("one_sided")
 MAT_FUZZ, MAT_IOR, MAT_PARAM, MAT_ETA, MAT_K = MATERIAL_F.offsets("fuzz", "ior", "param", "eta", "k")
 MAT_SPECULAR_COLOR, MAT_NORMAL_SCALE, MAT_BUMP_HEIGHT, MAT_EMISSION_STRENGTH = MATERIAL_F.offsets(
     "specular_color", "normal_scale", "bump_height", "emission_strength")
+MAT_G = MATERIAL_F.offset("g")
 
 # The model field read into each parameter slot, per kind (roughness slots come from widths()).
 PRINCIPLED_SLOTS = {SLOT_METALLIC: "metallic", SLOT_TRANSMISSION: "transmission", SLOT_CLEARCOAT: "clearcoat",
@@ -135,11 +137,12 @@ def texture_rows_of(ints) -> list[int]:
     return [int(r) for r in rows if r >= 0]
 
 
-def phase_function(texture: int) -> tuple[list, list]:
-    """The rows of the isotropic material that scatters inside a medium of albedo `texture`."""
+def phase_function(texture: int, g: float = 0.0) -> tuple[list, list]:
+    """The rows of the material that scatters inside a medium of albedo `texture`: isotropic for
+    g = 0, Henyey-Greenstein's of asymmetry g otherwise (materials/phase.py)."""
     return (MATERIAL_I.row(kind=ISOTROPIC, texture=texture, param_texture=[-1] * PARAMETER_SLOTS, normal_map=-1,
                            bump_map=-1, emission=-1),
-            MATERIAL_F.row(fuzz=0.0, ior=1.0))
+            MATERIAL_F.row(fuzz=0.0, ior=1.0, g=g))
 
 
 # Below this width (a metal's fuzz, a microfacet lobe's alpha) a surface shows a small bright light

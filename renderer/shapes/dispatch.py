@@ -7,7 +7,8 @@ from .. import target
 from scenefmt import affine
 
 from ..config import SPAWN_OFFSET
-from ..kernel_flags import INSTANCES, MEDIA, MESHES
+from ..kernel_flags import INSTANCES, MEDIA, MESHES, MOTION
+from ..motion import instance_maps, map_normal, map_point, map_vector, moves
 from ..numerics.vec import dot, madd, max_abs, unit, xform_normal, xform_point, xform_vector
 from ..trees import INST_OBJECT_FROM_WORLD, INST_UNTRANSFORMED, INST_WORLD_FROM_OBJECT
 from . import (BOX, DISK, MEDIUM, MESH_TRIANGLE, MOVING_SPHERE, PRIM_KIND, PRIM_MATERIAL, QUAD, SPHERE, TRIANGLE, boxes, meshes,
@@ -124,11 +125,24 @@ def interaction(S, prim, o, d, t, time, want_uv):
 
 
 @target.device
+def moving_interaction(S, prim, inst, o, d, t, time, want_uv):
+    """`interaction` of a surface hit under moving instance row `inst`, in the world: the ray
+    taken into the instance's space and the point and normal back out, by its maps at `time`.
+    Also the outward normal in the tree's space, for surface_derivatives."""
+    world, back = instance_maps(S.inst_i, S.motion_f, inst, time)
+    po, no, u, v = interaction(S, prim, map_point(back, o), map_vector(back, d), t, time, want_uv)
+    return map_point(world, po), unit(map_normal(back, no)), u, v, no
+
+
+@target.device
 def world_interaction(S, prim, inst, o, d, t, time, want_uv, volume):
     """`interaction` of a hit found in world space on instance `inst`: point, unit normal and
     (u, v) in world space, and the normal in the instance's own space (what a tree's bounds
-    read). The surface is queried in the instance's space (a volume event, which has no
-    surface, on the world's ray), as the path tracer and every pass that follows its rays do."""
+    read). The surface is queried in the instance's space, where the instance is at `time` if it
+    moves (a volume event, which has no surface, on the world's ray), as the path tracer and every
+    pass that follows its rays do."""
+    if MOTION and INSTANCES and not volume and moves(S.inst_i, inst):
+        return moving_interaction(S, prim, inst, o, d, t, time, want_uv)
     if INSTANCES and not volume and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
         oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
         dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
@@ -168,11 +182,14 @@ def surface_derivatives(S, prim, n):
 
 
 @target.device
-def world_derivatives(S, prim, inst, n_tree):
+def world_derivatives(S, prim, inst, n_tree, time):
     """`surface_derivatives` of a hit on primitive row `prim` placed by instance row `inst`,
-    carried to the world as vectors (the linear part of world_from_object); `n_tree` is the
-    outward normal `interaction` gave in the tree's space."""
+    carried to the world as vectors (the linear part of world_from_object, a moving instance's
+    at `time`); `n_tree` is the outward normal `interaction` gave in the tree's space."""
     dpdu, dpdv = surface_derivatives(S, prim, n_tree)
+    if MOTION and INSTANCES and moves(S.inst_i, inst):
+        world, _ = instance_maps(S.inst_i, S.motion_f, inst, time)
+        return map_vector(world, dpdu), map_vector(world, dpdv)
     if INSTANCES and S.inst_i[inst, INST_UNTRANSFORMED] != 1:
         return (xform_vector(S.inst_f, inst, INST_WORLD_FROM_OBJECT, dpdu),
                 xform_vector(S.inst_f, inst, INST_WORLD_FROM_OBJECT, dpdv))

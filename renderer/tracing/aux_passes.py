@@ -32,14 +32,15 @@ import math
 import numpy as np
 
 from .. import target
-from ..camera import CAM_DU, CAM_DV, CAM_ORIGIN, CAM_PIXEL00, camera_ray
-from ..kernel_flags import EMITTERS, SURFACE_MAPS
+from ..camera import CAM_DU, CAM_DV, CAM_FIRST_KEY, CAM_KEYS, CAM_ORIGIN, CAM_PIXEL00, camera_ray_at
+from ..kernel_flags import EMITTERS, MOTION, SURFACE_MAPS
 from ..materials import (MICROFACETS, NO_TANGENT, emits, emitted_at, has_density, has_shading_map,
                          is_anisotropic, is_zero, material_at, reads_uv, sample_bsdf, scatters, shading_frame)
 from ..numerics.rng import bounce_dim, sample_key
 from ..numerics.vec import dot, neg, sub
 from ..sampling import SAMPLER_INDEPENDENT
-from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction, world_derivatives
+from ..motion import map_point, map_vector, maps_at
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_derivatives, world_interaction
 from .traverse import intersect_scene, traversal_scratch
 
 # The most perfect specular vertices a sample follows before it takes the albedo and normal of
@@ -78,12 +79,16 @@ def aux_sample(S, key, o, d, time, axis, stack, tstack):
     from the lens centre (0 on a miss)."""
     zero = (0.0, 0.0, 0.0)
     lens = (S.camera[CAM_ORIGIN], S.camera[CAM_ORIGIN + 1], S.camera[CAM_ORIGIN + 2])
+    if MOTION and S.camera[CAM_KEYS] > 0.0:
+        # A moving camera's lens and axis are in its own space: placed where it is at this time.
+        world, _ = maps_at(S.motion_f, int(S.camera[CAM_FIRST_KEY]), int(S.camera[CAM_KEYS]), time)
+        lens, axis = map_point(world, lens), map_vector(world, axis)
     tr = (1.0, 1.0, 1.0)
     hit = False
     depth = 0.0
     for bounce in range(MAX_SPECULAR + 1):
         t, prim, inst = intersect_scene(
-            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
@@ -111,10 +116,10 @@ def aux_sample(S, key, o, d, time, axis, stack, tstack):
         n_shade = n_front
         tangent = NO_TANGENT
         if SURFACE_MAPS and maps:
-            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
             n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
         elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
-            tangent, _ = world_derivatives(S, prim, inst, n_tree)
+            tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
         c = clamp01(color)
         if has_density(S.mat_i, mat, params) or bounce == MAX_SPECULAR:
             return hit, depth, (tr[0] * c[0], tr[1] * c[1], tr[2] * c[2]), n_shade
@@ -149,7 +154,7 @@ def aux_rows(S, width, height, samples, seed, albedo, normal, depth, scratch):
             hits = 0
             for s in range(samples):
                 key = sample_key(seed, pixel, s, SAMPLER_INDEPENDENT)
-                o, d, time = camera_ray(S.camera, i, j, key)
+                o, d, time = camera_ray_at(S.camera, S.motion_f, i, j, key)
                 hit, zs, a, n = aux_sample(S, key, o, d, time, axis, stack, tstack)
                 if not (math.isfinite(zs) and math.isfinite(a[0]) and math.isfinite(a[1]) and math.isfinite(a[2])
                         and math.isfinite(n[0]) and math.isfinite(n[1]) and math.isfinite(n[2])):

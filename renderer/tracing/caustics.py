@@ -32,7 +32,7 @@ from ..numerics.rng import DIM_TIME, bounce_dim, light_dim, path_key, uniform
 from ..numerics.vec import dot, neg, sub, unit
 from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction
 from .integrator import SHADOW_MARGIN
-from .shadow import transmittance
+from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
 
 # Photon keys are made from the render's seed mixed with this, so they share no random numbers
@@ -62,7 +62,7 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
     specular = 0
     for bounce in range(max_depth):
         t, prim, inst = intersect_scene(
-            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0 or is_volume(S.prims_i, prim):
@@ -96,7 +96,7 @@ def trace_photon(S, key, width, height, max_depth, stack, tstack):
             if not f > 0.0:
                 return -1, 0.0, 0.0, 0.0
             origin = spawn_origin(p, o, n_front, wi)
-            seen = transmittance(S, origin, sub(lens, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack)
+            seen = shadow_transmittance(S, origin, sub(lens, origin), 1.0 - SHADOW_MARGIN, time, stack, tstack, key, bounce)
             if not seen > 0.0:
                 return -1, 0.0, 0.0, 0.0
             c = seen * f * k / dist2

@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from .. import target
-from ..camera import camera_ray
+from ..camera import camera_ray_at
 from ..flat import INTEGRATOR_CAUSTICS, INTEGRATOR_GUIDED, INTEGRATOR_MIS
 from ..guide_records import RECORDS_PER_PATH, add_to_records, no_records, open_record
 from ..guiding import guide_leaf, pdf_guide, sample_guide
@@ -18,8 +18,8 @@ from ..config import BATCHES
 from ..film_sums import add_sample
 from ..numerics.rng import bounce_dim, guide_dim, light_dim, sample_key, uniform
 from ..numerics.vec import dot, neg, sub, unit
-from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction, world_derivatives
-from .shadow import transmittance
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_derivatives, world_interaction
+from .shadow import shadow_transmittance
 from .traverse import intersect_scene, traversal_scratch
 
 # The photons' shares of a render that has none (every integrator but caustics).
@@ -88,7 +88,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
     for bounce in range(max_depth):
         rays += 1
         t, prim, inst = intersect_scene(
-            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+            S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
             S.tri_i, S.verts_f, o, d, 0.0, math.inf, time, key, bounce, stack, tstack,
         )
         if prim < 0:
@@ -141,12 +141,12 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         n_shade = n_front
         # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
         if SURFACE_MAPS and maps:
-            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
             n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
         elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
             # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
             # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
-            tangent, _ = world_derivatives(S, prim, inst, n_tree)
+            tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
         # Whether the vertex has a part with a density: asked only where light sampling, guiding or the
         # caustic split reads it (the books' path tracer never does).
         dense = mis and has_density(S.mat_i, mat, params)
@@ -205,7 +205,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
                     toward = wi
                 else:
                     toward, reach = sub(x, origin), 1.0 - SHADOW_MARGIN
-                seen = transmittance(S, origin, toward, reach, time, stack, tstack)
+                seen = shadow_transmittance(S, origin, toward, reach, time, stack, tstack, key, bounce)
                 if seen > 0.0:
                     # A delta light (a point, parallel light) is never met by chance: its sample counts in full.
                     w = 1.0 if delta_light else 1.0 / (1.0 + (density / light) ** 2)
@@ -285,7 +285,7 @@ def add_pixel_samples(S, i, j, width, seed, sample_start, sample_count, max_dept
     adaptive = sampling.threshold > 0.0
     for s in range(sample_start, sample_start + sample_count):
         key = sample_key(seed, pixel, s, sampling.sampler)
-        o, d, time = camera_ray(S.camera, i, j, key)
+        o, d, time = camera_ray_at(S.camera, S.motion_f, i, j, key)
         # A training pass's records of this path (guide_records.py): RECORDS_PER_PATH rows from
         # rec_row on for the pixel's first sample; rec is empty in a render.
         r, g, b, n = trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec,

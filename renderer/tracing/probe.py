@@ -9,7 +9,8 @@ from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
 from ..numerics.rng import independent_key
 from ..numerics.vec import unit, xform_normal, xform_point, xform_vector
 from ..shapes import MEDIUM, PRIM_KIND
-from ..shapes.dispatch import surface
+from ..motion import moves
+from ..shapes.dispatch import moving_interaction, surface
 from ..trees import INST_OBJECT_FROM_WORLD, INST_WORLD_FROM_OBJECT
 from .traverse import intersect_brute_force, intersect_scene, traversal_scratch
 
@@ -37,7 +38,7 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
             t, prim, inst = intersect_brute_force(S, o, d, tmin, math.inf, time, key, 0)
         else:
             t, prim, inst = intersect_scene(
-                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
                 S.tri_i, S.verts_f, o, d, tmin, math.inf, time, key, 0, stack, tstack,
             )
         if prim < 0:
@@ -45,11 +46,14 @@ def probe_rays(S, origins, dirs, time, tmin, brute):
         t_out[k], prim_out[k], inst_out[k] = t, prim, inst
         if S.prims_i[prim, PRIM_KIND] == MEDIUM:  # no surface
             continue
-        oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
-        dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
-        po, no, u, v = surface(S.prims_i[prim, PRIM_KIND], S, prim, oo, dd, t, time, True)
-        p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
-        nw = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
+        if moves(S.inst_i, inst):
+            p, nw, u, v, _ = moving_interaction(S, prim, inst, o, d, t, time, True)
+        else:
+            oo = xform_point(S.inst_f, inst, INST_OBJECT_FROM_WORLD, o)
+            dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
+            po, no, u, v = surface(S.prims_i[prim, PRIM_KIND], S, prim, oo, dd, t, time, True)
+            p = xform_point(S.inst_f, inst, INST_WORLD_FROM_OBJECT, po)
+            nw = unit(xform_normal(S.inst_f, inst, INST_OBJECT_FROM_WORLD, no))
         for q in range(3):
             p_out[k, q] = p[q]
             n_out[k, q] = nw[q]
@@ -85,7 +89,7 @@ def closest_hits_on_threads(S, origins, dirs, time, tmin, scratch):
             o = (origins[k, 0], origins[k, 1], origins[k, 2])
             d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
             t, prim, inst = intersect_scene(
-                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
+                S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f, S.bnd_i, S.bnd_f,
                 S.tri_i, S.verts_f, o, d, tmin, math.inf, time, key, 0, stack, tstack,
             )
             if prim >= 0:

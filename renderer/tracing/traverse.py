@@ -13,8 +13,9 @@ import numpy as np
 
 from .. import target
 from ..config import BVH_STACK, BVH_WIDE_STACK, MEDIA_DEFERRED
-from ..kernel_flags import INSTANCES, MEDIA, MESHES
+from ..kernel_flags import INSTANCES, MEDIA, MESHES, MOTION
 from ..media import medium_hit
+from ..motion import instance_maps, map_point, map_vector, moves
 from ..numerics.simd import slab4
 from ..numerics.vec import dot, xform_point, xform_vector
 from ..shapes import MEDIUM, MESH_TRIANGLE, PRIM_KIND
@@ -216,7 +217,7 @@ def intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, vert
 
 
 @target.device
-def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
+def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, motion_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                     o, d, tmin, tmax, time, key, bounce, stack, tstack):
     """Closest hit in the scene: (t, prim, instance); prim -1 if the ray escapes."""
     n_inst = inst_i.shape[0]
@@ -224,7 +225,7 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
         return tmax, -1, -1
     if INSTANCES:
         if n_inst > 1 or inst_i[0, INST_UNTRANSFORMED] != 1:
-            return intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
+            return intersect_instances(tlas_f, tlas_i, inst_i, inst_f, motion_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f,
                                        tri_i, verts_f, o, d, tmin, tmax, time, key, bounce, stack, tstack)
     # No instancing at all: one tree in world space.
     t, prim = intersect_tree(nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f, inst_i[0, INST_ROOT],
@@ -233,9 +234,10 @@ def intersect_scene(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, p
 
 
 @target.device
-def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
+def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, motion_f, nodes_f, nodes_i, prims_i, prims_f, bnd_i, bnd_f, tri_i, verts_f,
                         o, d, tmin, tmax, time, key, bounce, stack, tstack):
-    """Closest hit through the top-level tree: each instance's tree in its own space."""
+    """Closest hit through the top-level tree: each instance's tree in its own space (a moving
+    instance's at the ray's time)."""
     best_t, best_prim, best_inst = tmax, -1, -1
     inv = inverse_direction(d)
     if slab(tlas_f, 0, o, inv, tmin, best_t) == INF:
@@ -249,6 +251,9 @@ def intersect_instances(tlas_f, tlas_i, inst_i, inst_f, nodes_f, nodes_i, prims_
             for inst in range(first, first + count):
                 if inst_i[inst, INST_UNTRANSFORMED] == 1:
                     oo, dd = o, d
+                elif MOTION and moves(inst_i, inst):
+                    _, back = instance_maps(inst_i, motion_f, inst, time)
+                    oo, dd = map_point(back, o), map_vector(back, d)
                 else:
                     oo = xform_point(inst_f, inst, INST_OBJECT_FROM_WORLD, o)
                     dd = xform_vector(inst_f, inst, INST_OBJECT_FROM_WORLD, d)
@@ -276,6 +281,9 @@ def intersect_brute_force(S, o, d, tmin, tmax, time, key, bounce):
         dd = xform_vector(S.inst_f, inst, INST_OBJECT_FROM_WORLD, d)
         if S.inst_i[inst, INST_UNTRANSFORMED] == 1:
             oo, dd = o, d
+        elif moves(S.inst_i, inst):
+            _, back = instance_maps(S.inst_i, S.motion_f, inst, time)
+            oo, dd = map_point(back, o), map_vector(back, d)
         inv, inv_a = inverse_direction(dd), 1.0 / dot(dd, dd)
         shear = ray_shear(dd)
         for prim in tree_prims(S.nodes_i, S.inst_i[inst, INST_ROOT]):

@@ -194,7 +194,7 @@ def _stacks():
 @target.kernel
 def _hit(S, p, d, time, stack, tstack):
     """(prim, inst, point, unit normal) of the first surface along p + t d; prim -1 if none."""
-    t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+    t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
                                     S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, p, d, 0.0, math.inf, time, independent_key(1), 0, stack, tstack)
     if prim < 0:
         return prim, inst, p, p
@@ -306,7 +306,7 @@ def line_crossings(S, centre, radius, dirs, offsets):
              centre[2] + offsets[k, 2] - 2.0 * radius * d[2])
         t = 0.0
         while out[k] < 64:
-            t_hit, prim, _ = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+            t_hit, prim, _ = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
                                              S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, t, 4.0 * radius, 0.0, independent_key(1), 0,
                                              stack, tstack)
             if prim < 0:

@@ -26,7 +26,7 @@ def _shading_at(S, origins, dirs, stack, tstack):
     for k in range(origins.shape[0]):
         o = (origins[k, 0], origins[k, 1], origins[k, 2])
         d = (dirs[k, 0], dirs[k, 1], dirs[k, 2])
-        t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
+        t, prim, inst = intersect_scene(S.tlas_f, S.tlas_i, S.inst_i, S.inst_f, S.motion_f, S.nodes_f, S.nodes_i, S.prims_i, S.prims_f,
                                         S.bnd_i, S.bnd_f, S.tri_i, S.verts_f, o, d, 0.0, math.inf, 0.0, independent_key(1), 0,
                                         stack, tstack)
         if prim < 0:
@@ -43,7 +43,7 @@ def _shading_at(S, origins, dirs, stack, tstack):
             p, n, u, v = interaction(S, prim, o, d, t, 0.0, True)
             n_tree = n
         front = dot(d, n) < 0.0
-        dpdu, dpdv = world_derivatives(S, prim, inst, n_tree)
+        dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, 0.0)
         shading, tangent = (n if front else neg(n)), (0.0, 0.0, 0.0)
         if has_shading_map(S.mat_i, mat):
             shading, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)

@@ -73,7 +73,13 @@ SWITCH_ON["guiding"] = ("", "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5
 SWITCH_ON["caustics"] = SWITCH_ON["guiding"]
 # Light sampling samples the emitters: it comes with them (the books' estimator leaves it out).
 SWITCH_ON["lights"] = SWITCH_ON["emitters"]
-ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}, "light_tree": {"punctual": True}}
+# A medium of varying density, and one with an anisotropic phase: both come with the media's path.
+SWITCH_ON["varying_media"] = ("media:\n  puff: {type: noise, density: 0.5}\n",
+                              "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, interior: puff}\n")
+SWITCH_ON["phase_hg"] = ("media:\n  haze: {type: constant, density: 0.5, phase: {type: henyey_greenstein, g: 0.6}}\n",
+                         "  - {type: sphere, center: [0, 0.5, 0], radius: 0.5, interior: haze}\n")
+ALSO_ON = {"lights": {"emitters": True}, "parameter_textures": {"conductors": True}, "light_tree": {"punctual": True},
+           "varying_media": {"media": True}, "phase_hg": {"media": True}}
 
 
 def scene_text(flag=None):

@@ -160,8 +160,9 @@ def test_book_scenes_survive_a_round_trip_through_both_syntaxes(path, tmp_path):
     for suffix in (".yaml", ".json"):
         out = tmp_path / f"copy{suffix}"
         dump(original, out)
-        # Relative image, map and mesh paths resolve against the copy's folder: copy the files along.
-        for img in [*SCENES.glob("*.png"), *SCENES.glob("*.pfm"), *SCENES.glob("*.ply"), *SCENES.glob("*_assets/*")]:
+        # Relative image, map, mesh and grid paths resolve against the copy's folder: copy the files along.
+        for img in [*SCENES.glob("*.png"), *SCENES.glob("*.pfm"), *SCENES.glob("*.ply"), *SCENES.glob("*.npz"),
+                    *SCENES.glob("*_assets/*")]:
             (tmp_path / img.relative_to(SCENES)).parent.mkdir(exist_ok=True)
             (tmp_path / img.relative_to(SCENES)).write_bytes(img.read_bytes())
         assert load(out).scene == original

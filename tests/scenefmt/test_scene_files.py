@@ -70,6 +70,14 @@ EXPECTED = {
         {"quad": 6, "mesh": 1}, (600, 600), 200, 50,
         dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
     ),
+    # Not from the books: motion of a mesh and a panning camera (issue 36, docs/motion.md).
+    "motion_knot.yaml": (
+        {"quad": 6, "mesh": 1}, (600, 600), 200, 50,
+        dict(look_from=(278, 278, -800), look_at=(278, 278, 0), vfov=40), BLACK,
+    ),
+    "motion_pan.yaml": (
+        {"sphere": 6}, (400, 225), 100, 20, dict(look_from=(0, 1.5, 8), look_at=(-0.25, 0.8, 0), vfov=30), "sky",
+    ),
     "final_scene.yaml": (
         {"box": 400, "quad": 1, "moving_sphere": 1, "sphere": 6, "instance": 1}, (400, 400), 250, 4,
         dict(look_from=(478, 278, -600), look_at=(278, 278, 0), vfov=40), BLACK,
@@ -117,6 +125,10 @@ EXPECTED = {
     ),
     "material_spheres.yaml": (
         {"sphere": 7}, (480, 270), 64, 16, dict(look_from=(0, 1.3, 6.5), look_at=(0, 0.4, 0), vfov=26), "image",
+    ),
+    # Issue 36: a plume of smoke from a grid (scenes/generate_smoke.py) in a lit room.
+    "smoke_plume.yaml": (
+        {"quad": 6, "box": 2}, (400, 400), 256, 24, dict(look_from=(5, 4.5, -11), look_at=(5, 4, 5), vfov=42), BLACK,
     ),
 }
 
@@ -412,7 +424,7 @@ def test_the_torus_knot_is_the_one_meshgen_makes(tmp_path):
 
 
 @pytest.mark.parametrize("script, small", [("generate.py", None), ("generate_sky.py", "sky.pfm"), ("generate_many_lights.py", None),
-                                          ("generate_gltf.py", None)])
+                                           ("generate_gltf.py", None), ("generate_smoke.py", "smoke_plume.npz")])
 def test_generated_files_are_up_to_date(script, small):
     """What each of the scripts in scenes/ writes is what is committed (--check), and the sky map
     it writes stays small."""

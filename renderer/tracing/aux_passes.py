@@ -33,14 +33,15 @@ import numpy as np
 
 from .. import target
 from ..camera import CAM_DU, CAM_DV, CAM_FIRST_KEY, CAM_KEYS, CAM_ORIGIN, CAM_PIXEL00, camera_ray_at
-from ..kernel_flags import EMITTERS, MOTION, SURFACE_MAPS
-from ..materials import (MICROFACETS, NO_TANGENT, emits, emitted_at, has_density, has_shading_map,
-                         is_anisotropic, is_zero, material_at, reads_uv, sample_bsdf, scatters, shading_frame)
+from ..kernel_flags import EMITTERS, MOTION
+from ..materials import (emits, emitted_at, has_density, has_shading_map, is_zero, material_at, reads_uv, sample_bsdf,
+                         scatters)
 from ..numerics.rng import bounce_dim, sample_key
 from ..numerics.vec import dot, neg, sub
 from ..sampling import SAMPLER_INDEPENDENT
 from ..motion import map_point, map_vector, maps_at
-from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_derivatives, world_interaction
+from ..shapes.dispatch import hit_material, is_volume, spawn_origin, world_interaction
+from .integrator import shading_normal
 from .traverse import intersect_scene, traversal_scratch
 
 # The most perfect specular vertices a sample follows before it takes the albedo and normal of
@@ -113,13 +114,7 @@ def aux_sample(S, key, o, d, time, axis, stack, tstack):
             # A light that only emits: what it shows, clamped, stands for its colour.
             c = clamp01(emitted_at(S, mat, color, u, v, p, front))
             return hit, depth, (tr[0] * c[0], tr[1] * c[1], tr[2] * c[2]), n_front
-        n_shade = n_front
-        tangent = NO_TANGENT
-        if SURFACE_MAPS and maps:
-            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
-            n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
-        elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
-            tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
+        n_shade, tangent = shading_normal(S, mat, prim, inst, n, n_front, n_tree, front, maps, params, u, v, p, d, time)
         c = clamp01(color)
         if has_density(S.mat_i, mat, params) or bounce == MAX_SPECULAR:
             return hit, depth, (tr[0] * c[0], tr[1] * c[1], tr[2] * c[2]), n_shade

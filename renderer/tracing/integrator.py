@@ -36,6 +36,24 @@ SHADOW_MARGIN = 1e-7
 GUIDE_SHARE = 0.5
 
 
+
+@target.device
+def shading_normal(S, mat, prim, inst, n, n_front, n_tree, front, maps, params, u, v, p, d, time):
+    """The normal a material's lobe is built around and its tangent (NO_TANGENT for none): the
+    surface's normal facing the ray, or the one a normal or bump map bends; an anisotropic lobe's
+    tangent along dp/du. For the path tracer and every pass that follows its rays."""
+    n_shade = n_front
+    tangent = NO_TANGENT
+    # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
+    if SURFACE_MAPS and maps:
+        dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
+        n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
+    elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
+        # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
+        # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
+        tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
+    return n_shade, tangent
+
 @target.device
 def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_first):
     """Radiance along one camera path, and the number of rays it cast (shadow rays included).
@@ -138,15 +156,7 @@ def trace(S, key, o, d, time, max_depth, integrator, stack, tstack, rec, rec_fir
         # The normal the material's lobe is built around: the surface's, or the one a map bends
         # (materials/shading_normal.py). The surface's stays for the side of the hit and for
         # where the next ray starts.
-        n_shade = n_front
-        # SURFACE_MAPS first: a kernel compiled without it prunes these branches before typing them.
-        if SURFACE_MAPS and maps:
-            dpdu, dpdv = world_derivatives(S, prim, inst, n_tree, time)
-            n_shade, tangent = shading_frame(S, mat, n, front, dpdu, dpdv, u, v, p, d)
-        elif MICROFACETS and is_anisotropic(S.mat_i, mat, params):
-            # An anisotropic lobe is laid along dp/du (brushed along u); shapes without a (u, v)
-            # direction (a box, a sphere's pole) give none, and the lobe takes any frame.
-            tangent, _ = world_derivatives(S, prim, inst, n_tree, time)
+        n_shade, tangent = shading_normal(S, mat, prim, inst, n, n_front, n_tree, front, maps, params, u, v, p, d, time)
         # Whether the vertex has a part with a density: asked only where light sampling, guiding or the
         # caustic split reads it (the books' path tracer never does).
         dense = mis and has_density(S.mat_i, mat, params)
